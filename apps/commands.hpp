@@ -1,0 +1,27 @@
+// Registry of the command line's subcommands. Each apps/<name>_command.cpp defines one
+// `register_<name>_command` that adds a CLI11 subcommand whose callback does the work.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <vector>
+
+namespace ridgeline::apps {
+
+using CommandRegistrar = std::function<void(CLI::App&)>;
+
+void register_scenario_command(CLI::App& app);
+void register_validate_command(CLI::App& app);
+void register_run_command(CLI::App& app);
+void register_fit_dem_command(CLI::App& app);
+
+inline std::vector<CommandRegistrar> all_commands() {
+  return {register_scenario_command, register_validate_command, register_run_command,
+          register_fit_dem_command};
+}
+
+/// Exit code the chosen subcommand asks for (0 unless it called set_exit_code).
+int exit_code();
+void set_exit_code(int code);
+
+}  // namespace ridgeline::apps

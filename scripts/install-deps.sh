@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages Ridgeline builds and tests with.
+# Idempotent: when every package is already installed it prints nothing and touches nothing.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev            # linear algebra (vehicle, QP, MPC)
+  coinor-libipopt-dev      # NLP solver: global planner, QP reference in tests
+  libceres-dev             # nonlinear least squares: DEM peak fit
+  libgdal-dev gdal-bin     # DEM rasters (GeoTIFF, ESRI ASCII, SRTM .hgt)
+  libproj-dev              # geodetic frames
+  libyaml-cpp-dev          # scenario files
+  nlohmann-json3-dev       # JSON outputs
+  libcli11-dev             # command line
+  libspdlog-dev libfmt-dev # logging, formatting
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+echo "install-deps: installing ${missing[*]}"
+sudo_cmd=()
+[ "$(id -u)" -ne 0 ] && sudo_cmd=(sudo)
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

@@ -1,0 +1,14 @@
+#include "core/types.hpp"
+
+#include <cmath>
+
+namespace ridgeline {
+
+double wrap_angle(double angle_rad) {
+  double wrapped = std::remainder(angle_rad, 2.0 * kPi);
+  // std::remainder returns values in [-pi, pi]; map -pi to pi so the range is half-open.
+  if (wrapped <= -kPi) wrapped += 2.0 * kPi;
+  return wrapped;
+}
+
+}  // namespace ridgeline

@@ -1,0 +1,22 @@
+// Small shared numeric types. World frame is ENU (x east, y north, z up), SI units.
+#pragma once
+
+#include <Eigen/Core>
+
+namespace ridgeline {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+using VecX = Eigen::VectorXd;
+using MatX = Eigen::MatrixXd;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kGravity_m_s2 = 9.80665;
+
+constexpr double deg_to_rad(double deg) { return deg * kPi / 180.0; }
+constexpr double rad_to_deg(double rad) { return rad * 180.0 / kPi; }
+
+/// Wraps an angle to (-pi, pi].
+double wrap_angle(double angle_rad);
+
+}  // namespace ridgeline

@@ -1,0 +1,96 @@
+// Dense convex QP solver: primal–dual interior point with Mehrotra predictor–corrector
+// (DESIGN §3, the paper's "primal–dual method").
+//
+//   minimize    ½ zᵀ H z + fᵀ z
+//   subject to  lb ≤ z ≤ ub            (box bounds, ±infinity allowed)
+//               lg ≤ G z ≤ ug          (two-sided general rows, ±infinity allowed)
+//               A z = b                (optional equality rows)
+//
+// H must be symmetric positive semidefinite. Sized for MPC: tens of variables, hundreds of
+// rows, solved every control period and warm-started from the previous solution. After the
+// first solve of a given size, solve() allocates nothing.
+#pragma once
+
+#include <limits>
+#include <memory>
+#include <string_view>
+
+#include <Eigen/Core>
+
+namespace ridgeline::qp {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+/// Problem data. Sizes: n variables, m general rows, p equality rows (all may be zero
+/// except n). Unbounded sides are ±kInfinity.
+struct QpProblem {
+  Eigen::MatrixXd H;   ///< n×n, symmetric PSD
+  Eigen::VectorXd f;   ///< n
+  Eigen::VectorXd lb;  ///< n (or empty: no bounds)
+  Eigen::VectorXd ub;  ///< n (or empty: no bounds)
+  Eigen::MatrixXd G;   ///< m×n
+  Eigen::VectorXd lg;  ///< m
+  Eigen::VectorXd ug;  ///< m
+  Eigen::MatrixXd A;   ///< p×n
+  Eigen::VectorXd b;   ///< p
+
+  int num_variables() const { return static_cast<int>(H.rows()); }
+};
+
+enum class QpStatus {
+  kSolved,            ///< optimal within tolerances
+  kIterationLimit,    ///< stopped at max_iterations; the iterate is not certified optimal
+  kPrimalInfeasible,  ///< no z satisfies the constraints (certificate found)
+  kDualInfeasible,    ///< objective unbounded below on the feasible set (certificate found)
+  kNumericalError,    ///< factorization failed or the iteration broke down
+  kInvalidInput,      ///< sizes inconsistent, NaN/inf in data, lower side above upper side
+};
+std::string_view to_string(QpStatus status);
+
+/// Solver options with documented defaults.
+struct QpSettings {
+  int max_iterations = 100;
+  double tolerance = 1e-9;             ///< relative KKT tolerance (residuals and gap)
+  double infeasibility_tolerance = 1e-8;
+  bool warm_start = true;              ///< start from the previous solution when sizes match
+};
+
+/// Outcome of one solve. `z` is meaningful for kSolved (and is the last iterate otherwise).
+struct QpResult {
+  QpStatus status = QpStatus::kInvalidInput;
+  Eigen::VectorXd z;             ///< primal solution, n
+  Eigen::VectorXd dual_bounds;   ///< multipliers of the box bounds (+ upper, − lower), n
+  Eigen::VectorXd dual_rows;     ///< multipliers of the general rows (+ upper, − lower), m
+  Eigen::VectorXd dual_eq;       ///< multipliers of the equality rows, p
+  int iterations = 0;
+  double objective = 0.0;        ///< ½zᵀHz + fᵀz
+  double primal_residual = 0.0;  ///< max constraint violation (∞-norm)
+  double dual_residual = 0.0;    ///< ∞-norm of the Lagrangian's gradient
+  double duality_gap = 0.0;
+  double solve_time_us = 0.0;
+};
+
+class QpSolver {
+ public:
+  explicit QpSolver(QpSettings settings = {});
+
+  /// Solves the problem; warm-starts from the previous solve when enabled and sizes match.
+  const QpResult& solve(const QpProblem& problem);
+  /// Forgets the previous solution (the next solve starts cold).
+  void reset();
+
+  const QpSettings& settings() const { return settings_; }
+  const QpResult& last_result() const { return result_; }
+
+ private:
+  QpSettings settings_;
+  QpResult result_;
+  // The solver's workspace lives in the implementation file.
+  struct Workspace;
+  struct WorkspaceDeleter {
+    void operator()(Workspace*) const;
+  };
+  std::unique_ptr<Workspace, WorkspaceDeleter> workspace_;
+};
+
+}  // namespace ridgeline::qp

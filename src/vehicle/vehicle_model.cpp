@@ -1,0 +1,91 @@
+#include "vehicle/vehicle_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ridgeline::vehicle {
+
+double VehicleParams::max_turn_rate_rad_s(double speed_m_s) const {
+  return std::max(speed_m_s, 0.0) / min_turn_radius_m;
+}
+
+State derivative(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p) {
+  const double psi = s[kPsi];
+  const double v = s[kV];
+  State ds;
+  ds[kX] = v * std::cos(psi) + wind_m_s.x();
+  ds[kY] = v * std::sin(psi) + wind_m_s.y();
+  ds[kZ] = s[kW] + wind_m_s.z();
+  ds[kPsi] = s[kOmega];
+  ds[kV] = (u[kSpeedCmd] - v) / p.tau_v_s;
+  ds[kOmega] = (u[kTurnRateCmd] - s[kOmega]) / p.tau_omega_s;
+  ds[kW] = (u[kClimbRateCmd] - s[kW]) / p.tau_w_s;
+  return ds;
+}
+
+State euler_step(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p,
+                 double dt_s) {
+  return s + dt_s * derivative(s, u, wind_m_s, p);
+}
+
+State rk4_step(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p,
+               double dt_s) {
+  const State k1 = derivative(s, u, wind_m_s, p);
+  const State k2 = derivative(s + 0.5 * dt_s * k1, u, wind_m_s, p);
+  const State k3 = derivative(s + 0.5 * dt_s * k2, u, wind_m_s, p);
+  const State k4 = derivative(s + dt_s * k3, u, wind_m_s, p);
+  return s + (dt_s / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+}
+
+Jacobians continuous_jacobians(const State& s, const VehicleParams& p) {
+  const double c = std::cos(s[kPsi]);
+  const double sn = std::sin(s[kPsi]);
+  const double v = s[kV];
+  Jacobians J;
+  J.A.setZero();
+  J.A(kX, kPsi) = -v * sn;
+  J.A(kX, kV) = c;
+  J.A(kY, kPsi) = v * c;
+  J.A(kY, kV) = sn;
+  J.A(kZ, kW) = 1.0;
+  J.A(kPsi, kOmega) = 1.0;
+  J.A(kV, kV) = -1.0 / p.tau_v_s;
+  J.A(kOmega, kOmega) = -1.0 / p.tau_omega_s;
+  J.A(kW, kW) = -1.0 / p.tau_w_s;
+
+  J.B.setZero();
+  J.B(kV, kSpeedCmd) = 1.0 / p.tau_v_s;
+  J.B(kOmega, kTurnRateCmd) = 1.0 / p.tau_omega_s;
+  J.B(kW, kClimbRateCmd) = 1.0 / p.tau_w_s;
+
+  J.E.setZero();
+  J.E(kX, 0) = 1.0;
+  J.E(kY, 1) = 1.0;
+  J.E(kZ, 2) = 1.0;
+  return J;
+}
+
+Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s) {
+  Jacobians J = continuous_jacobians(s, p);
+  J.A = StateMatrix::Identity() + dt_s * J.A;
+  J.B *= dt_s;
+  J.E *= dt_s;
+  return J;
+}
+
+Input clamp_to_limits(const Input& u, const State& s, const VehicleParams& p) {
+  Input out;
+  out[kSpeedCmd] = std::clamp(u[kSpeedCmd], p.min_speed_m_s(), p.max_speed_m_s());
+  // The turn-rate bound uses the speed the vehicle has now (eq. 3); below the speed band the
+  // band's floor applies so a slow vehicle can still turn at R_min.
+  const double speed = std::max(s[kV], p.min_speed_m_s());
+  const double max_turn = p.max_turn_rate_rad_s(speed);
+  out[kTurnRateCmd] = std::clamp(u[kTurnRateCmd], -max_turn, max_turn);
+  const double max_climb = std::min(p.max_climb_rate_m_s, speed * std::tan(p.max_pitch_rad));
+  out[kClimbRateCmd] = std::clamp(u[kClimbRateCmd], -max_climb, max_climb);
+  return out;
+}
+
+double pitch_angle_rad(const State& s) { return std::atan2(s[kW], s[kV]); }
+
+}  // namespace ridgeline::vehicle

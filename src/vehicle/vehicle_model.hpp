@@ -1,0 +1,83 @@
+// Vehicle motion model of a fixed-heading-rate UAV (DESIGN §2, paper eq. 1–4).
+//
+// State  s = [x, y, z, ψ, v, ω, w]: ENU position (m), heading ψ (rad, from east,
+//            counter-clockwise), horizontal speed v (m/s), turn rate ω (rad/s),
+//            vertical speed w (m/s).
+// Input  u = [v_c, ω_c, w_c]: commanded speed, turn rate and vertical speed.
+// Wind   W = [Wx, Wy, Wz]: the air mass's drift (m/s), added to the ground velocity.
+//
+//   ẋ = v cos ψ + Wx    ẏ = v sin ψ + Wy    ż = w + Wz                       (eq. 1)
+//   ψ̇ = ω    v̇ = (v_c − v)/τ_v    ω̇ = (ω_c − ω)/τ_ω    ẇ = (w_c − w)/τ_w
+//
+// The MPC predicts with the explicit Euler step (eq. 4); the simulator's truth integrates
+// with RK4, possibly with different time constants (model mismatch is deliberate).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/types.hpp"
+
+namespace ridgeline::vehicle {
+
+constexpr int kStateDim = 7;
+constexpr int kInputDim = 3;
+
+using State = Eigen::Matrix<double, kStateDim, 1>;
+using Input = Eigen::Matrix<double, kInputDim, 1>;
+using StateMatrix = Eigen::Matrix<double, kStateDim, kStateDim>;
+using InputMatrix = Eigen::Matrix<double, kStateDim, kInputDim>;
+using WindMatrix = Eigen::Matrix<double, kStateDim, 3>;
+
+/// Indices into State.
+enum StateIndex : int { kX = 0, kY, kZ, kPsi, kV, kOmega, kW };
+/// Indices into Input.
+enum InputIndex : int { kSpeedCmd = 0, kTurnRateCmd, kClimbRateCmd };
+
+/// Physical parameters and maneuver limits of one UAV (eq. 2–3).
+struct VehicleParams {
+  double cruise_speed_m_s = 10.0;     ///< v0
+  double speed_band_m_s = 5.0;        ///< Δv: v0 − Δv ≤ v_c ≤ v0 + Δv
+  double min_turn_radius_m = 10.0;    ///< R_min: |ω_c| ≤ v / R_min
+  double max_climb_rate_m_s = 3.0;    ///< w_max: |w_c| ≤ w_max
+  double max_pitch_rad = deg_to_rad(30.0);  ///< θ_max: |atan2(w, v)| ≤ θ_max
+  double tau_v_s = 0.5;               ///< speed lag τ_v
+  double tau_omega_s = 0.2;           ///< turn-rate lag τ_ω
+  double tau_w_s = 0.4;               ///< climb-rate lag τ_w
+
+  double min_speed_m_s() const { return cruise_speed_m_s - speed_band_m_s; }
+  double max_speed_m_s() const { return cruise_speed_m_s + speed_band_m_s; }
+  /// Largest admissible |ω_c| at horizontal speed v (eq. 3).
+  double max_turn_rate_rad_s(double speed_m_s) const;
+};
+
+/// Continuous-time dynamics f(s, u, W) of eq. 1.
+State derivative(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p);
+
+/// Explicit Euler step s⁺ = s + Δt·f(s, u, W) (eq. 4), the MPC's prediction model.
+State euler_step(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p,
+                 double dt_s);
+
+/// Classical fourth-order Runge–Kutta step with u and W held over the step: the truth model.
+State rk4_step(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p,
+               double dt_s);
+
+/// Analytic Jacobians of f: A = ∂f/∂s, B = ∂f/∂u, E = ∂f/∂W.
+struct Jacobians {
+  StateMatrix A;
+  InputMatrix B;
+  WindMatrix E;
+};
+Jacobians continuous_jacobians(const State& s, const VehicleParams& p);
+
+/// Jacobians of the Euler step: A_d = I + Δt·A, B_d = Δt·B, E_d = Δt·E.
+Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s);
+
+/// Clamps a command into the maneuver limits at state s: the speed band, |ω_c| ≤ v/R_min
+/// (with v the current horizontal speed, floored at the minimum speed), and the climb
+/// command to both w_max and the pitch limit |w_c| ≤ v·tan θ_max.
+Input clamp_to_limits(const Input& u, const State& s, const VehicleParams& p);
+
+/// Flight-path (pitch) angle θ = atan2(w, v) of a state.
+double pitch_angle_rad(const State& s);
+
+}  // namespace ridgeline::vehicle
