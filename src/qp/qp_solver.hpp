@@ -53,6 +53,9 @@ struct QpSettings {
   double tolerance = 1e-9;             ///< relative KKT tolerance (residuals and gap)
   double infeasibility_tolerance = 1e-8;
   bool warm_start = true;              ///< start from the previous solution when sizes match
+  /// A warm-started solve that has not converged after this many iterations restarts cold
+  /// (a far-off previous solution can cost more than a cold start).
+  int warm_start_max_iterations = 25;
 };
 
 /// Outcome of one solve. `z` is meaningful for kSolved (and is the last iterate otherwise).

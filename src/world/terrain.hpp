@@ -6,9 +6,11 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/types.hpp"
+#include "world/raster_grid.hpp"
 
 namespace ridgeline::world {
 
@@ -43,5 +45,78 @@ struct PeakTerrainConfig {
   double base_elevation_m = 0.0;  ///< added to the peak field everywhere
   double model_error_m = 0.0;     ///< known error of this field (e.g. a fit's max residual)
 };
+
+/// Throws InputError unless every peak has finite x/y, finite positive height and sigmas,
+/// and the base elevation and model error are finite (model error also >= 0). Field paths
+/// are rooted at `path`, e.g. `terrain.peaks[3].sigma_x_m`.
+void validate_peak_terrain_config(const PeakTerrainConfig& config,
+                                  const std::string& path = "terrain");
+
+/// The analytic peak field of eq. 12:
+///   max:  H(x, y) = H0 + max_i h_i·e_i(x, y)
+///   sum:  H(x, y) = H0 + Σ_i  h_i·e_i(x, y),   e_i = exp(−((x − x_i)/a_i)² − ((y − y_i)/b_i)²)
+/// with base elevation H0. The gradient is analytic: ∂(h·e)/∂x = −2 h·e·(x − x_i)/a_i²
+/// (likewise in y). For `max` it is the gradient of the dominant peak (the one attaining the
+/// max; the lowest index on a tie) — H is not differentiable where two peaks are equal, and
+/// this one-sided choice is what the MPC's linearized clearance row needs. With no peaks the
+/// field is the flat plane H0.
+class PeakTerrain : public Terrain {
+ public:
+  /// Validates the config (validate_peak_terrain_config with root `path`).
+  explicit PeakTerrain(PeakTerrainConfig config, const std::string& path = "terrain");
+
+  double height(double x_m, double y_m) const override;
+  Vec2 gradient(double x_m, double y_m) const override;
+  double model_error_m() const override { return config_.model_error_m; }
+
+  const PeakTerrainConfig& config() const { return config_; }
+
+ private:
+  PeakTerrainConfig config_;
+};
+
+/// A raster terrain: bilinear interpolation of a RasterGrid (see raster_grid.hpp for the
+/// cell-centre / row-0-south convention).
+///
+/// Inside the hull of the cell centres, with u = (x − x_c)/Δx, v = (y − y_r)/Δy in [0, 1]:
+///   H = (1−u)(1−v)·H_00 + u(1−v)·H_01 + (1−u)v·H_10 + uv·H_11,
+///   ∂H/∂x = ((1−v)(H_01 − H_00) + v(H_11 − H_10))/Δx   (likewise in y).
+/// The gradient is that of the cell containing the point (the cell to the north/east on a
+/// shared edge); H itself is continuous.
+/// Points outside the hull are CLAMPED to the border: x and y are each clamped to the range of
+/// cell-centre coordinates, so the field extends as constant along the outward normal, and the
+/// gradient component across a clamped axis is zero. A grid of one row (or column) is
+/// constant in y (or x).
+class RasterTerrain : public Terrain {
+ public:
+  /// Validates the grid (validate_raster_grid with `what` as the error's field).
+  explicit RasterTerrain(RasterGrid grid, double model_error_m = 0.0,
+                         const std::string& what = "terrain.raster");
+
+  double height(double x_m, double y_m) const override;
+  Vec2 gradient(double x_m, double y_m) const override;
+  double model_error_m() const override { return model_error_m_; }
+
+  const RasterGrid& grid() const { return grid_; }
+
+ private:
+  struct Cell {
+    int row = 0;
+    int col = 0;
+    double u = 0.0;  ///< fractional position east of col, in [0, 1]
+    double v = 0.0;  ///< fractional position north of row, in [0, 1]
+    bool clamped_x = false;
+    bool clamped_y = false;
+  };
+  Cell locate(double x_m, double y_m) const;
+
+  RasterGrid grid_;
+  double model_error_m_ = 0.0;
+};
+
+/// Samples `terrain` at the cell centres of a rows × cols grid whose south-west cell centre is
+/// `origin_m` and whose spacing is `cell_m` (x, y). Throws InputError on a bad geometry.
+RasterGrid sample_terrain(const Terrain& terrain, int rows, int cols, const Vec2& origin_m,
+                          const Vec2& cell_m);
 
 }  // namespace ridgeline::world

@@ -1,0 +1,338 @@
+#include "io/scenario_file.hpp"
+
+#include <fmt/format.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "core/random.hpp"
+#include "io/yaml_fields.hpp"
+
+namespace ridgeline::io {
+
+extern const char* const kDefaultScenarioYaml;  // generated from scenarios/default.yaml
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string read_text_file(const fs::path& path, const std::string& field) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(field, fmt::format("cannot read file '{}'", path.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(field, fmt::format("error while reading '{}'", path.string()));
+  return text.str();
+}
+
+world::PeakCombination parse_combination(const YamlValue& v) {
+  const std::string s = v.as_string();
+  if (s == "max") return world::PeakCombination::kMax;
+  if (s == "sum") return world::PeakCombination::kSum;
+  throw InputError(v.path(), fmt::format("must be 'max' or 'sum', got '{}'", s));
+}
+
+world::PeakTerrainConfig parse_peak_terrain(YamlMap& m) {
+  world::PeakTerrainConfig config;
+  if (auto c = m.optional("combination")) config.combination = parse_combination(*c);
+  config.base_elevation_m = m.get_double("base_elevation_m", 0.0);
+  config.model_error_m = m.get_double("model_error_m", 0.0);
+  if (config.model_error_m < 0.0)
+    throw InputError(m.path() + ".model_error_m", "must not be negative");
+  const std::vector<YamlValue> peaks = m.required("peaks").as_list();
+  if (peaks.empty()) throw InputError(m.path() + ".peaks", "at least one peak is needed");
+  for (const YamlValue& item : peaks) {
+    YamlMap p = item.as_map();
+    world::Peak peak;
+    peak.x_m = p.required("x_m").as_double();
+    peak.y_m = p.required("y_m").as_double();
+    peak.height_m = p.required("height_m").as_double();
+    peak.sigma_x_m = p.required("sigma_x_m").as_double();
+    peak.sigma_y_m = p.required("sigma_y_m").as_double();
+    p.finish();
+    if (peak.height_m <= 0.0)
+      throw InputError(p.path() + ".height_m", fmt::format("must be positive, got {}", peak.height_m));
+    if (peak.sigma_x_m <= 0.0)
+      throw InputError(p.path() + ".sigma_x_m", fmt::format("must be positive, got {}", peak.sigma_x_m));
+    if (peak.sigma_y_m <= 0.0)
+      throw InputError(p.path() + ".sigma_y_m", fmt::format("must be positive, got {}", peak.sigma_y_m));
+    config.peaks.push_back(peak);
+  }
+  return config;
+}
+
+sim::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth);
+
+// `terrain: {include: FILE}`: FILE holds a top-level `terrain:` block (as `ridgeline fit-dem`
+// writes it, with an informational `fit_report:` beside it).
+sim::TerrainSource parse_terrain_include(const YamlValue& include, const fs::path& base_dir,
+                                         int include_depth) {
+  if (include_depth > 4) throw InputError(include.path(), "includes nest too deeply (a cycle?)");
+  const fs::path path = base_dir / include.as_string();
+  const std::string text = read_text_file(path, include.path());
+  YamlMap top = YamlValue(parse_yaml(text, path.string()), path.string()).as_map();
+  YamlMap terrain = top.required("terrain").as_map();
+  (void)top.optional("fit_report");  // informational only
+  top.finish();
+  return parse_terrain(terrain, path.parent_path(), include_depth + 1);
+}
+
+sim::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth) {
+  const int sources = int(m.has("peaks")) + int(m.has("dem")) + int(m.has("include"));
+  if (sources != 1) {
+    throw InputError(m.path(), "give exactly one of 'peaks' (inline peaks), 'dem' (a raster "
+                               "file) or 'include' (a terrain file written by fit-dem)");
+  }
+  if (auto include = m.optional("include")) {
+    sim::TerrainSource source = parse_terrain_include(*include, base_dir, include_depth);
+    m.finish();
+    return source;
+  }
+  sim::TerrainSource source;
+  if (auto dem_value = m.optional("dem")) {
+    YamlMap dem = dem_value->as_map();
+    source.kind = sim::TerrainSource::Kind::kDem;
+    source.dem_path = (base_dir / dem.required("path").as_string()).string();
+    const std::string model = dem.get_string("model", "raster");
+    if (model == "raster") {
+      source.dem_model = sim::TerrainSource::DemModel::kRaster;
+    } else if (model == "fitted") {
+      source.dem_model = sim::TerrainSource::DemModel::kFitted;
+    } else {
+      throw InputError(dem.path() + ".model", fmt::format("must be 'raster' or 'fitted', got '{}'", model));
+    }
+    source.dem_fit_peaks = static_cast<int>(dem.get_int("fit_peaks", 8));
+    if (source.dem_fit_peaks < 1 || source.dem_fit_peaks > 200)
+      throw InputError(dem.path() + ".fit_peaks", fmt::format("must be in [1, 200], got {}", source.dem_fit_peaks));
+    if (auto c = dem.optional("combination")) source.dem_fit_combination = parse_combination(*c);
+    dem.finish();
+    m.finish();
+    return source;
+  }
+  source.kind = sim::TerrainSource::Kind::kPeaks;
+  source.peaks = parse_peak_terrain(m);
+  m.finish();
+  return source;
+}
+
+void parse_vehicle(YamlMap& m, vehicle::VehicleParams& v) {
+  v.cruise_speed_m_s = m.get_double("cruise_speed_m_s", v.cruise_speed_m_s);
+  v.speed_band_m_s = m.get_double("speed_band_m_s", v.speed_band_m_s);
+  v.min_turn_radius_m = m.get_double("min_turn_radius_m", v.min_turn_radius_m);
+  v.max_climb_rate_m_s = m.get_double("max_climb_rate_m_s", v.max_climb_rate_m_s);
+  v.max_pitch_rad = deg_to_rad(m.get_double("max_pitch_deg", rad_to_deg(v.max_pitch_rad)));
+  v.tau_v_s = m.get_double("tau_v_s", v.tau_v_s);
+  v.tau_omega_s = m.get_double("tau_omega_s", v.tau_omega_s);
+  v.tau_w_s = m.get_double("tau_w_s", v.tau_w_s);
+  m.finish();
+}
+
+sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defaults) {
+  YamlMap m = item.as_map();
+  sim::UavSpec uav;
+  uav.name = m.required("name").as_string();
+  uav.vehicle = defaults;
+  if (auto v = m.optional("vehicle")) {
+    YamlMap vm = v->as_map();
+    parse_vehicle(vm, uav.vehicle);
+  }
+  YamlMap start = m.required("start").as_map();
+  uav.start_position_m = start.required("position_m").as_vec3();
+  uav.start_heading_rad = deg_to_rad(start.get_double("heading_deg", 0.0));
+  uav.start_speed_m_s = start.get_double("speed_m_s", uav.vehicle.cruise_speed_m_s);
+  start.finish();
+  uav.sensor_range_m = m.get_double("sensor_range_m", uav.sensor_range_m);
+  m.finish();
+  return uav;
+}
+
+sim::InspectionTarget parse_target(const YamlValue& item) {
+  YamlMap m = item.as_map();
+  sim::InspectionTarget t;
+  t.name = m.required("name").as_string();
+  t.position_m = m.required("position_m").as_vec3();
+  t.priority = static_cast<int>(m.get_int("priority", t.priority));
+  t.inspection_radius_m = m.get_double("inspection_radius_m", t.inspection_radius_m);
+  m.finish();
+  return t;
+}
+
+world::Threat parse_threat(const YamlValue& item, std::size_t index) {
+  YamlMap m = item.as_map();
+  world::Threat t;
+  t.name = m.get_string("name", fmt::format("threat{}", index + 1));
+  t.centre_m = m.required("centre_m").as_vec3();
+  t.velocity_m_s = m.required("velocity_m_s").as_vec3();
+  t.radius_m = m.required("radius_m").as_double();
+  t.appear_s = m.required("appear_s").as_double();
+  t.vanish_s = m.required("vanish_s").as_double();
+  m.finish();
+  return t;
+}
+
+void parse_wind(YamlMap& m, world::WindConfig& w, std::uint64_t scenario_seed) {
+  w.mean_m_s = m.get_vec3("mean_m_s", w.mean_m_s);
+  w.gust_std_m_s = m.get_double("gust_std_m_s", w.gust_std_m_s);
+  w.vertical_gust_ratio = m.get_double("vertical_gust_ratio", w.vertical_gust_ratio);
+  w.correlation_length_m = m.get_double("correlation_length_m", w.correlation_length_m);
+  w.correlation_time_s = m.get_double("correlation_time_s", w.correlation_time_s);
+  w.measurement_noise_m_s = m.get_double("measurement_noise_m_s", w.measurement_noise_m_s);
+  w.gust_modes = static_cast<int>(m.get_int("gust_modes", w.gust_modes));
+  const long long seed = m.get_int("seed", -1);
+  if (seed < -1) throw InputError(m.path() + ".seed", "must not be negative");
+  // Without its own seed the wind derives one from the scenario's, so one seed fixes a run.
+  w.seed = seed >= 0 ? static_cast<std::uint64_t>(seed) : derive_seed(scenario_seed, 1);
+  m.finish();
+}
+
+void parse_mpc(YamlMap& m, sim::MpcConfig& c) {
+  c.control_period_s = m.get_double("control_period_s", c.control_period_s);
+  c.prediction_step_s = m.get_double("prediction_step_s", c.prediction_step_s);
+  c.horizon_steps = static_cast<int>(m.get_int("horizon_steps", c.horizon_steps));
+  c.control_horizon_steps = static_cast<int>(m.get_int("control_horizon_steps", c.control_horizon_steps));
+  c.position_weight = m.get_double("position_weight", c.position_weight);
+  c.move_weights = m.get_vec3("move_weights", c.move_weights);
+  c.max_moves = m.get_vec3("max_moves", c.max_moves);
+  c.slack_weight = m.get_double("slack_weight", c.slack_weight);
+  m.finish();
+}
+
+void parse_planner(YamlMap& m, sim::PlannerConfig& p) {
+  p.waypoints_per_uav = static_cast<int>(m.get_int("waypoints_per_uav", p.waypoints_per_uav));
+  p.max_turn_angle_rad = deg_to_rad(m.get_double("max_turn_angle_deg", rad_to_deg(p.max_turn_angle_rad)));
+  p.pitch_penalty = m.get_double("pitch_penalty", p.pitch_penalty);
+  p.turn_penalty = m.get_double("turn_penalty", p.turn_penalty);
+  if (auto w = m.optional("weights")) {
+    YamlMap wm = w->as_map();
+    p.weight_range = wm.get_double("range", p.weight_range);
+    p.weight_pitch = wm.get_double("pitch", p.weight_pitch);
+    p.weight_turn = wm.get_double("turn", p.weight_turn);
+    p.weight_altitude = wm.get_double("altitude", p.weight_altitude);
+    wm.finish();
+  }
+  if (auto c = m.optional("cluster")) {
+    YamlMap cm = c->as_map();
+    p.lambda_individual = cm.get_double("individual", p.lambda_individual);
+    p.lambda_collision = cm.get_double("collision", p.lambda_collision);
+    cm.finish();
+  }
+  m.finish();
+}
+
+void parse_simulation(YamlMap& m, sim::SimulationConfig& s) {
+  s.duration_s = m.get_double("duration_s", s.duration_s);
+  s.truth_rate_hz = m.get_double("truth_rate_hz", s.truth_rate_hz);
+  s.message_rate_hz = m.get_double("message_rate_hz", s.message_rate_hz);
+  s.truth_time_constant_scale = m.get_double("truth_time_constant_scale", s.truth_time_constant_scale);
+  s.position_noise_m = m.get_double("position_noise_m", s.position_noise_m);
+  m.finish();
+}
+
+}  // namespace
+
+InvalidScenario::InvalidScenario(std::vector<InputError> problems)
+    : InputError(problems.empty() ? std::string() : problems.front().field(),
+                 problems.empty()
+                     ? std::string("invalid scenario")
+                     : problems.front().reason() +
+                           (problems.size() > 1
+                                ? fmt::format(" (and {} more problem{})", problems.size() - 1,
+                                              problems.size() > 2 ? "s" : "")
+                                : std::string())),
+      problems_(std::move(problems)) {}
+
+std::string_view default_scenario_yaml() { return kDefaultScenarioYaml; }
+
+sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& source,
+                             const fs::path& base_dir) {
+  const YAML::Node root = parse_yaml(yaml_text, source);
+  if (!root.IsMap()) {
+    throw InputError(source, "a scenario must be a YAML mapping with keys such as area, "
+                             "terrain, uavs, targets");
+  }
+  YamlMap top(root, "");
+  sim::Scenario s;
+  s.name = top.get_string("name", "unnamed");
+  const long long seed = top.get_int("seed", 1);
+  if (seed < 0) throw InputError("seed", "must not be negative");
+  s.seed = static_cast<std::uint64_t>(seed);
+
+  YamlMap area = top.required("area").as_map();
+  s.area.x_min_m = area.required("x_min_m").as_double();
+  s.area.x_max_m = area.required("x_max_m").as_double();
+  s.area.y_min_m = area.required("y_min_m").as_double();
+  s.area.y_max_m = area.required("y_max_m").as_double();
+  area.finish();
+
+  if (auto alt = top.optional("altitude")) {
+    YamlMap m = alt->as_map();
+    s.altitude.min_m = m.get_double("min_m", s.altitude.min_m);
+    s.altitude.max_m = m.get_double("max_m", s.altitude.max_m);
+    m.finish();
+  }
+  if (auto safety = top.optional("safety")) {
+    YamlMap m = safety->as_map();
+    s.safety.terrain_clearance_m = m.get_double("terrain_clearance_m", s.safety.terrain_clearance_m);
+    s.safety.separation_m = m.get_double("separation_m", s.safety.separation_m);
+    s.safety.threat_margin_m = m.get_double("threat_margin_m", s.safety.threat_margin_m);
+    m.finish();
+  }
+
+  YamlMap terrain = top.required("terrain").as_map();
+  s.terrain = parse_terrain(terrain, base_dir, 0);
+
+  vehicle::VehicleParams vehicle_defaults;
+  if (auto v = top.optional("vehicle")) {
+    YamlMap m = v->as_map();
+    parse_vehicle(m, vehicle_defaults);
+  }
+  for (const YamlValue& item : top.required("uavs").as_list())
+    s.uavs.push_back(parse_uav(item, vehicle_defaults));
+  for (const YamlValue& item : top.required("targets").as_list())
+    s.targets.push_back(parse_target(item));
+  if (auto threats = top.optional("threats")) {
+    const auto items = threats->as_list();
+    for (std::size_t i = 0; i < items.size(); ++i) s.threats.push_back(parse_threat(items[i], i));
+  }
+  s.wind.seed = derive_seed(s.seed, 1);
+  if (auto w = top.optional("wind")) {
+    YamlMap m = w->as_map();
+    parse_wind(m, s.wind, s.seed);
+  }
+  if (auto m = top.optional("mpc")) {
+    YamlMap mm = m->as_map();
+    parse_mpc(mm, s.mpc);
+  }
+  if (auto p = top.optional("planner")) {
+    YamlMap pm = p->as_map();
+    parse_planner(pm, s.planner);
+  }
+  if (auto sim_block = top.optional("simulation")) {
+    YamlMap sm = sim_block->as_map();
+    parse_simulation(sm, s.simulation);
+  }
+  top.finish();
+  return s;
+}
+
+LoadedScenario load_scenario(const std::string& yaml_text, const std::string& source,
+                             const fs::path& base_dir) {
+  LoadedScenario loaded;
+  loaded.source = source;
+  loaded.scenario = parse_scenario(yaml_text, source, base_dir);
+  loaded.terrain = build_terrain(loaded.scenario.terrain);
+  std::vector<InputError> problems = sim::validate(loaded.scenario, *loaded.terrain);
+  if (!problems.empty()) throw InvalidScenario(std::move(problems));
+  return loaded;
+}
+
+LoadedScenario load_scenario_file(const fs::path& path) {
+  const std::string text = read_text_file(path, path.string());
+  return load_scenario(text, path.string(), path.parent_path());
+}
+
+LoadedScenario load_default_scenario() {
+  return load_scenario(std::string(default_scenario_yaml()), "<default>", fs::current_path());
+}
+
+}  // namespace ridgeline::io

@@ -1,0 +1,199 @@
+// Plant-agnostic incremental (velocity-form) model predictive controller (DESIGN §3,
+// paper eq. 5–11).
+//
+// Plant, possibly time-varying along the horizon (step j maps s_j to s_{j+1}):
+//
+//   s_{j+1} = A_j s_j + B_j u_j + E_j d_j (+ affine terms),   y_j = C s_j
+//
+// Incremental form (eq. 6–7): with Δs_j = s_j − s_{j−1}, Δu_j = u_j − u_{j−1},
+// Δd_j = d_j − d_{j−1} and the augmented state ξ_j = [Δs_j; y_j],
+//
+//   ξ_{j+1} = [A_j 0; C·A_j I] ξ_j + [B_j; C·B_j] Δu_j + [w_j; C·w_j],
+//   w_j     = E_j Δd_j + o_j,                                               (eq. 7)
+//
+// where o_j is an optional known offset (for a time-varying plant the exact increment also
+// holds (A_j − A_{j−1}) s_{j−1} + …; a caller who knows such terms along a nominal trajectory
+// passes them in o_j, otherwise they are neglected — the usual LTV velocity-form
+// approximation). For an LTI plant without offsets eq. 7 is exact.
+//
+// Measured disturbance (wind). A disturbance enters the incremental form only through its
+// increment Δd_j: a constant d changes every s_{j+1} − s_j by the same E·d, which is already
+// contained in the measured Δs_k. So a constant disturbance needs no model at all (this, plus
+// y_k in ξ, is the integral action of the incremental form), and feed-forward of a measured
+// d acts on its changes: Δd_k = d_k − d_{k−1} at the current step and the forecast increments
+// later in the horizon (zero for a "held" measurement).
+//
+// Stacking over the prediction horizon Np with moves only in the first Nc steps
+// (Δu_j = 0 for j ≥ Nc, eq. 8–9):
+//
+//   Y = F ξ_k + Φ ΔU + Y_w,    Y = [y_{k+1}; …; y_{k+Np}],  ΔU = [Δu_k; …; Δu_{k+Nc−1}]
+//
+// with F = [C̃ Ã_0; C̃ Ã_1 Ã_0; …], Φ(j, i) = C̃ Ã_j ⋯ Ã_{i+1} B̃_i (j ≥ i), C̃ = [0 I], and
+// Y_w the response to the known terms w_j. Cost (eq. 10) plus slack penalty:
+//
+//   J = (R − Y)ᵀ Q̄ (R − Y) + ΔUᵀ R̄ ΔU + Σ_g (ρ₁ σ_g + ρ₂ σ_g²)
+//
+// Q̄ = diag(Q, …, Q, Q_N), R̄ = diag(R, …, R), Q, Q_N, R diagonal. Constraints (eq. 11):
+//   hard   Δu_min,i ≤ Δu_{k+i} ≤ Δu_max,i              (box bounds of the QP)
+//          u_min,i ≤ u_{k−1} + Σ_{l≤i} Δu_{k+l} ≤ u_max,i  (Nc·n_u general rows)
+//          y_min,j ≤ y_{k+j+1} ≤ y_max,j                (Np·n_y rows, optional)
+//   soft   aᵀ y_{k+j+1} + σ_g ≥ b,  σ_g ≥ 0             (one row per call of add_soft_row)
+// The slack σ_g is shared by all soft rows of group g (a group is a kind of constraint, e.g.
+// "threats"), which keeps the QP small; its exact-penalty weight ρ₁ makes σ = 0 whenever the
+// rows are satisfiable, and σ_g reports the largest violation the solution accepts in that
+// group. With soft rows only (no hard output rows) and consistent input/move limits the QP
+// is always feasible.
+//
+// QP in z = [ΔU; σ] (n = Nc·n_u + slack groups): H = 2·blkdiag(ΦᵀQ̄Φ + R̄, ρ₂ I),
+// f = [−2 ΦᵀQ̄(R − Fξ − Y_w); ρ₁ 1]. All matrices are preallocated at construction; after the
+// first solve a step allocates nothing. Soft rows beyond those added in a step are left in the
+// QP with both sides infinite, so the QP's size is fixed and its warm start always applies.
+#pragma once
+
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/types.hpp"
+#include "qp/qp_solver.hpp"
+
+namespace ridgeline::mpc {
+
+/// Sizes of the plant and of the soft-constraint storage; fixed for the controller's life.
+struct IncrementalMpcDims {
+  int state_dim = 0;          ///< n_s ≥ 1
+  int input_dim = 0;          ///< n_u ≥ 1
+  int output_dim = 0;         ///< n_y ≥ 1
+  int disturbance_dim = 0;    ///< n_d ≥ 0 (0: no measured disturbance)
+  int soft_row_capacity = 0;  ///< largest number of soft rows in one step, ≥ 0
+  int slack_groups = 0;       ///< number of slack variables σ_g, ≥ 0 (≥ 1 if soft rows exist)
+};
+
+/// Tuning with documented defaults. Weights are the diagonals of Q, Q_N and R (eq. 10).
+struct IncrementalMpcOptions {
+  int prediction_horizon = 40;        ///< Np ≥ 1
+  int control_horizon = 10;           ///< Nc, 1 ≤ Nc ≤ Np
+  VecX output_weight;                 ///< diag Q, n_y entries ≥ 0
+  VecX terminal_output_weight;        ///< diag Q_N at j = Np, n_y entries ≥ 0; empty: Q
+  VecX move_weight;                   ///< diag R, n_u entries > 0 (keeps H positive definite)
+  bool hard_output_limits = false;    ///< add the rows y_min ≤ y ≤ y_max of eq. 11
+  double slack_linear_weight = 1e4;   ///< ρ₁ > 0, per unit of slack (exact penalty)
+  double slack_quadratic_weight = 1e2;///< ρ₂ > 0, per unit² of slack
+  qp::QpSettings qp_settings;
+};
+
+/// The data of one step, preallocated by the controller and filled by the caller before
+/// solve(). Column j of a horizon matrix belongs to prediction step j (0-based): for the
+/// plant, the transition s_{k+j} → s_{k+j+1}; for outputs and references, y_{k+j+1}; for
+/// input and move limits, move j (u_{k+j}, Δu_{k+j}).
+struct IncrementalMpcData {
+  std::vector<MatX> A;     ///< Np matrices n_s×n_s (A_j)
+  std::vector<MatX> B;     ///< Np matrices n_s×n_u (B_j)
+  std::vector<MatX> E;     ///< Np matrices n_s×n_d (E_j)
+  MatX C;                  ///< n_y×n_s
+
+  VecX delta_state;        ///< Δs_k = s_k − s_{k−1} (measured increment)
+  VecX output;             ///< y_k (measured)
+  VecX state;              ///< s_k, only to report predicted absolute states
+  VecX previous_input;     ///< u_{k−1}, the input applied last
+  MatX disturbance_delta;  ///< n_d×Np, Δd_{k+j}
+  MatX state_offset;       ///< n_s×Np, o_j (zero unless the caller knows affine terms)
+  MatX reference;          ///< n_y×Np, r_{k+j+1}
+
+  MatX input_min, input_max;    ///< n_u×Nc, per move (±infinity allowed)
+  MatX move_min, move_max;      ///< n_u×Nc, per move (±infinity allowed)
+  MatX output_min, output_max;  ///< n_y×Np, used when hard_output_limits
+
+  /// Copies one (A, B, E) into every step of the horizon and sets C. E may be empty if
+  /// n_d = 0.
+  void set_time_invariant(const MatX& A_, const MatX& B_, const MatX& C_, const MatX& E_);
+
+  /// Adds the soft row aᵀ y_{k+step+1} + σ_group ≥ bound. Returns false (and adds nothing) if
+  /// the capacity is full or step/group is out of range; the caller reports that.
+  bool add_soft_row(int step, const Eigen::Ref<const VecX>& a, double bound, int group);
+  void clear_soft_rows() { soft_row_count = 0; }
+
+  int soft_row_count = 0;
+  std::vector<int> soft_step;   ///< capacity entries
+  std::vector<int> soft_group;  ///< capacity entries
+  MatX soft_normal;             ///< n_y×capacity
+  VecX soft_bound;              ///< capacity
+};
+
+/// Outcome of one step.
+struct IncrementalMpcResult {
+  qp::QpStatus qp_status = qp::QpStatus::kInvalidInput;
+  /// Empty when the data were consistent; otherwise the name of the offending field
+  /// (e.g. "A[3]") and the QP was not attempted.
+  std::string_view invalid_field;
+  VecX first_move;         ///< Δu_k
+  VecX first_input;        ///< u_k = u_{k−1} + Δu_k (the QP's, before any clamping)
+  VecX moves;              ///< ΔU, Nc·n_u
+  MatX predicted_outputs;  ///< n_y×Np, y_{k+j+1} under ΔU
+  MatX predicted_states;   ///< n_s×Np, s_k + Σ Δs under ΔU
+  VecX slack;              ///< σ_g per group
+  double max_slack = 0.0;  ///< max_g σ_g
+  double cost = 0.0;       ///< J of eq. 10 plus the slack penalty, at the solution
+  int qp_iterations = 0;
+  double qp_time_us = 0.0;
+  double build_time_us = 0.0;  ///< prediction matrices and QP assembly
+
+  bool solved() const { return qp_status == qp::QpStatus::kSolved; }
+};
+
+class IncrementalMpc {
+ public:
+  /// Throws ridgeline::InputError naming the option or dimension that is inconsistent.
+  IncrementalMpc(const IncrementalMpcDims& dims, const IncrementalMpcOptions& options);
+
+  const IncrementalMpcDims& dims() const { return dims_; }
+  const IncrementalMpcOptions& options() const { return options_; }
+  int num_variables() const { return nz_; }
+  int num_rows() const { return static_cast<int>(qp_.G.rows()); }
+
+  /// The step's data, to be filled before solve(). Sizes are set here; keep them.
+  IncrementalMpcData& data() { return data_; }
+  const IncrementalMpcData& data() const { return data_; }
+
+  /// Builds F, Φ, Y_w from data() (eq. 8–9). solve() calls it.
+  void build_prediction();
+  /// Builds and solves the QP, returns the result (valid until the next solve).
+  const IncrementalMpcResult& solve();
+  /// Forgets the warm start.
+  void reset() { solver_.reset(); }
+
+  /// Prediction matrices of the last build_prediction(): Y = F ξ_k + Φ ΔU + Y_w.
+  const MatX& F() const { return F_; }
+  const MatX& Phi() const { return Phi_; }
+  const VecX& known_response() const { return Yw_; }
+  const qp::QpProblem& qp_problem() const { return qp_; }
+
+ private:
+  std::string_view check_data() const;
+  void assemble_qp();
+  void extract_solution(const qp::QpResult& qp_result);
+
+  IncrementalMpcDims dims_;
+  IncrementalMpcOptions options_;
+  int ns_, nu_, ny_, nd_, nxi_, np_, nc_, ng_, nz_;
+  int input_rows_begin_, output_rows_begin_, soft_rows_begin_;
+
+  IncrementalMpcData data_;
+  IncrementalMpcResult result_;
+  qp::QpProblem qp_;
+  qp::QpSolver solver_;
+
+  MatX F_;      // (Np·n_y)×n_ξ
+  MatX Phi_;    // (Np·n_y)×(Nc·n_u)
+  VecX Yw_;     // Np·n_y
+  VecX Yfree_;  // F ξ + Y_w
+  VecX qdiag_;  // Np·n_y, diagonal of Q̄
+  MatX QPhi_;   // Q̄ Φ
+  VecX err_;    // R − Y_free (stacked)
+  // Propagation workspace: X = [X_s; X_y] with up to n_ξ columns.
+  MatX Xs_, Xy_, tmp_;
+  VecX ds_, dsn_, w_;
+};
+
+}  // namespace ridgeline::mpc

@@ -1,0 +1,746 @@
+// Primal–dual interior point for the dense convex QP of qp_solver.hpp.
+//
+// Internal form. Every finite side of a box bound or general row is a one-sided inequality
+// with its own slack s ≥ 0 and multiplier λ ≥ 0:
+//
+//   z − lb − s_lb = 0,   ub − z − s_ub = 0,   Gz − lg − s_lg = 0,   ug − Gz − s_ug = 0,
+//
+// and the equality block E z = e holds the user's A z = b plus every row with lg == ug and
+// every variable with lb == ub (such a pair of inequalities has no strict interior, which
+// would stall the interior point). With w_b = λ_ub − λ_lb, w_g = λ_ug − λ_lg the KKT system is
+//
+//   r_d = H z + f + w_b + Gᵀ w_g + Eᵀ y = 0,   primal residuals = 0,   s ∘ λ = σ μ e.      (1)
+//
+// Eliminating Δs and Δλ from the Newton step of (1) leaves the reduced system
+//
+//   [ H + D_b + Gᵀ D_g G   Eᵀ ] [Δz]   [ −r_d − q_b − Gᵀ q_g ]
+//   [        E             0  ] [Δy] = [        −r_e          ]                             (2)
+//
+// with D = Λ S⁻¹ summed over the two sides of a bound or row and q = (r_c + λ ∘ r_p)/s
+// (lower side minus upper side). Without equality rows (the MPC case) (2) is the n×n
+// positive definite matrix and is factored by LLT; otherwise the quasi-definite matrix
+// (primal regularization +δ, dual −δ) by LDLT. Either way iterative refinement against the
+// unregularized operator removes the regularization from the step.
+//
+// Mehrotra predictor–corrector: an affine step (σ = 0) gives μ_aff and σ = (μ_aff/μ)³, the
+// combined step adds the second-order term Δs_aff ∘ Δλ_aff; both reuse one factorization.
+//
+// Infeasibility. The iterates of an infeasible-start interior point diverge when the problem
+// has no solution: the multipliers along a Farkas ray when it is primal infeasible, the primal
+// iterate along a recession direction when it is unbounded. Each iteration the current
+// multipliers and the last multiplier step are tested as a Farkas certificate
+//   ‖Kᵀw‖∞ ≤ ε‖w‖∞,  Σ (u_i w_i⁺ − l_i w_i⁻) < −ε‖w‖∞,
+// (K stacks I, G and E; w stacks w_b, w_g, y), and the current primal iterate and the last
+// primal step as a certificate of unboundedness
+//   ‖Hd‖∞ ≤ ε‖d‖∞,  fᵀd < −ε‖d‖∞,  K d in the recession cone of the constraints (within ε‖d‖∞).
+// The statuses are reported only when these inequalities hold, so the iterates merely propose
+// the certificate and the test decides.
+#include "qp/qp_solver.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+namespace ridgeline::qp {
+
+namespace {
+
+// Sides at or beyond this magnitude are absent (the convention of qpOASES and OSQP's 1e30).
+constexpr double kInfiniteBound = 1e20;
+// Fraction of the step to the boundary of s, λ ≥ 0 that is taken (keeps iterates interior).
+constexpr double kStepFraction = 0.99;
+// Smallest slack and multiplier of a warm start (see warm_start()).
+constexpr double kWarmStartShift = 1e-3;
+
+bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
+
+}  // namespace
+
+std::string_view to_string(QpStatus status) {
+  switch (status) {
+    case QpStatus::kSolved:
+      return "solved";
+    case QpStatus::kIterationLimit:
+      return "iteration limit";
+    case QpStatus::kPrimalInfeasible:
+      return "primal infeasible";
+    case QpStatus::kDualInfeasible:
+      return "dual infeasible (unbounded)";
+    case QpStatus::kNumericalError:
+      return "numerical error";
+    case QpStatus::kInvalidInput:
+      return "invalid input";
+  }
+  return "unknown";
+}
+
+
+namespace {
+
+using Vec = Eigen::VectorXd;
+using Arr = Eigen::ArrayXd;
+using Mat = Eigen::MatrixXd;
+
+// NaN is never allowed in bounds; a lower side of +∞ or an upper side of −∞ is meaningless.
+bool valid_sides(const Vec& lo, const Vec& hi) {
+  for (Eigen::Index i = 0; i < lo.size(); ++i) {
+    if (std::isnan(lo[i]) || std::isnan(hi[i])) return false;
+    if (lo[i] >= kInfiniteBound || hi[i] <= -kInfiniteBound) return false;
+    if (lo[i] > hi[i]) return false;
+  }
+  return true;
+}
+
+bool valid_input(const QpProblem& q) {
+  const Eigen::Index n = q.H.rows();
+  if (n <= 0 || q.H.cols() != n || q.f.size() != n) return false;
+  if ((q.lb.size() != 0 && q.lb.size() != n) || (q.ub.size() != 0 && q.ub.size() != n)) {
+    return false;
+  }
+  const Eigen::Index m = q.G.rows();
+  if (m > 0 && q.G.cols() != n) return false;
+  if (q.lg.size() != m || q.ug.size() != m) return false;
+  const Eigen::Index p = q.A.rows();
+  if (p > 0 && q.A.cols() != n) return false;
+  if (q.b.size() != p) return false;
+  if (!q.H.allFinite() || !q.f.allFinite() || !q.G.allFinite() || !q.A.allFinite() ||
+      !q.b.allFinite()) {
+    return false;
+  }
+  // Symmetric to a relative 1e-10 (round-off of an assembled H); the solver reads one triangle.
+  const double h_scale = std::max(1.0, q.H.cwiseAbs().maxCoeff());
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      if (std::abs(q.H(i, j) - q.H(j, i)) > 1e-10 * h_scale) return false;
+    }
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double lo = q.lb.size() != 0 ? q.lb[i] : -kInfinity;
+    const double hi = q.ub.size() != 0 ? q.ub[i] : kInfinity;
+    if (std::isnan(lo) || std::isnan(hi) || lo >= kInfiniteBound || hi <= -kInfiniteBound ||
+        lo > hi) {
+      return false;
+    }
+  }
+  return valid_sides(q.lg, q.ug);
+}
+
+// Two sides this close form an equality: as two inequalities they would leave no interior.
+bool is_equality(double lo, double hi) {
+  return finite_side(lo) && finite_side(hi) &&
+         hi - lo <= 1e-12 * std::max(1.0, std::max(std::abs(lo), std::abs(hi)));
+}
+
+template <typename Derived>
+double inf_norm(const Eigen::DenseBase<Derived>& v) {
+  return v.size() == 0 ? 0.0 : v.cwiseAbs().maxCoeff();
+}
+
+// Largest α ≤ 1 with x + α dx ≥ 0 where mask is set.
+double max_ratio(const Arr& x, const Arr& dx, const Arr& mask, double alpha) {
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (mask[i] != 0.0 && dx[i] < 0.0) alpha = std::min(alpha, -x[i] / dx[i]);
+  }
+  return alpha;
+}
+
+}  // namespace
+
+struct QpSolver::Workspace {
+  // Sizes of the user's problem and of the internal equality block E.
+  int n = -1, m = -1, p = -1, ne = 0;
+  Eigen::ArrayXi eq_row_of_g;    // m: index of the row in E, or −1
+  Eigen::ArrayXi eq_row_of_var;  // n: index of the row in E, or −1
+
+  // Problem in internal form; absent sides have mask 0, slack 1 and multiplier 0.
+  const QpProblem* q = nullptr;
+  Arr lb, ub, lg, ug, has_lb, has_ub, has_lg, has_ug;
+  Mat E;
+  Vec e;
+  int num_inequalities = 0;
+
+  // Iterate and the previous solution for warm starts.
+  Vec z, y, z_prev, y_prev;
+  Arr s_lb, s_ub, s_lg, s_ug, l_lb, l_ub, l_lg, l_ug;
+  Arr p_lb, p_ub, p_lg, p_ug;  // previous multipliers
+  bool have_previous = false;
+
+  // Residuals, directions and temporaries.
+  Vec Gz, Hz, Gtw, Ety, r_d, r_e, rhs_z, rhs_y, dz, dy, Gdz, tmp_n, tmp_m, res_z, res_y, cz, cy,
+      kkt_rhs, kkt_sol, cand_z, cand_gz, cand_hz, cand_ez;
+  Arr r_lb, r_ub, r_lg, r_ug, rc_lb, rc_ub, rc_lg, rc_ug;
+  Arr ds_lb, ds_ub, ds_lg, ds_ug, dl_lb, dl_ub, dl_lg, dl_ug;
+  Arr as_lb, as_ub, as_lg, as_ug, al_lb, al_ub, al_lg, al_ug;  // affine step
+  Arr d_b, d_g, q_b, q_g, sqrt_d_g, cw_b, cw_g;
+  Vec cw_y;
+  Mat Gt, M, Wt, K;
+  Eigen::LLT<Mat> llt;
+  Eigen::LDLT<Mat> ldlt;
+  double reg_primal = 0.0, reg_dual = 0.0;
+  bool last_step_valid = false;
+
+  bool setup(const QpProblem& problem);
+  void cold_start();
+  void warm_start();
+  void residuals();
+  double mu() const;
+  bool factor();
+  void apply_reduced(const Vec& xz, const Vec& xy, Vec& out_z, Vec& out_y);
+  void solve_reduced(const Vec& rz, const Vec& ry, Vec& out_z, Vec& out_y);
+  void direction(const Arr& c_lb, const Arr& c_ub, const Arr& c_lg, const Arr& c_ug);
+  double step_to_boundary() const;
+  bool primal_infeasible(const Arr& w_b, const Arr& w_g, const Vec& w_y, double eps);
+  bool dual_infeasible(const Vec& d, double eps);
+  QpStatus iterate(const QpSettings& settings, int max_iterations, int& iterations);
+  void fill_result(QpResult& result);
+};
+
+void QpSolver::WorkspaceDeleter::operator()(Workspace* w) const { delete w; }
+
+QpSolver::QpSolver(QpSettings settings) : settings_(settings), workspace_(new Workspace) {}
+
+void QpSolver::reset() { workspace_->have_previous = false; }
+
+bool QpSolver::Workspace::setup(const QpProblem& problem) {
+  q = &problem;
+  const int n_new = problem.num_variables();
+  const int m_new = static_cast<int>(problem.G.rows());
+  const int p_new = static_cast<int>(problem.A.rows());
+  bool resized = false;
+  if (n_new != n || m_new != m || p_new != p) {
+    n = n_new;
+    m = m_new;
+    p = p_new;
+    for (Arr* a : {&lb, &ub, &has_lb, &has_ub, &s_lb, &s_ub, &l_lb, &l_ub, &p_lb, &p_ub, &r_lb,
+                   &r_ub, &rc_lb, &rc_ub, &ds_lb, &ds_ub, &dl_lb, &dl_ub, &as_lb, &as_ub,
+                   &al_lb, &al_ub, &d_b, &q_b, &cw_b}) {
+      a->setZero(n);
+    }
+    for (Arr* a : {&lg, &ug, &has_lg, &has_ug, &s_lg, &s_ug, &l_lg, &l_ug, &p_lg, &p_ug, &r_lg,
+                   &r_ug, &rc_lg, &rc_ug, &ds_lg, &ds_ug, &dl_lg, &dl_ug, &as_lg, &as_ug,
+                   &al_lg, &al_ug, &d_g, &q_g, &sqrt_d_g, &cw_g}) {
+      a->setZero(m);
+    }
+    for (Vec* v : {&z, &z_prev, &Hz, &Gtw, &Ety, &r_d, &rhs_z, &dz, &tmp_n, &res_z, &cz, &cand_z,
+                   &cand_hz}) {
+      v->setZero(n);
+    }
+    for (Vec* v : {&Gz, &Gdz, &tmp_m, &cand_gz}) v->setZero(m);
+    eq_row_of_g.setConstant(m, -2);
+    eq_row_of_var.setConstant(n, -2);
+    M.setZero(n, n);
+    Gt.setZero(n, m);
+    Wt.setZero(n, m);
+    resized = true;
+  }
+
+  // Equality pattern: the user's rows, then rows with lg == ug, then fixed variables.
+  bool pattern_changed = resized;
+  int count = p;
+  for (int j = 0; j < m; ++j) {
+    const int row = is_equality(problem.lg[j], problem.ug[j]) ? count++ : -1;
+    pattern_changed |= row != eq_row_of_g[j];
+    eq_row_of_g[j] = row;
+  }
+  for (int i = 0; i < n; ++i) {
+    const bool fixed = problem.lb.size() != 0 && problem.ub.size() != 0 &&
+                       is_equality(problem.lb[i], problem.ub[i]);
+    const int row = fixed ? count++ : -1;
+    pattern_changed |= row != eq_row_of_var[i];
+    eq_row_of_var[i] = row;
+  }
+  if (pattern_changed) {
+    ne = count;
+    E.setZero(ne, n);
+    e.setZero(ne);
+    for (Vec* v : {&y, &y_prev, &r_e, &rhs_y, &dy, &res_y, &cy, &cand_ez, &cw_y}) v->setZero(ne);
+    if (ne > 0) {
+      K.setZero(n + ne, n + ne);
+      kkt_rhs.setZero(n + ne);
+      kkt_sol.setZero(n + ne);
+    }
+    have_previous = false;
+  }
+
+  // Data in internal form.
+  num_inequalities = 0;
+  for (int i = 0; i < n; ++i) {
+    const double lo = problem.lb.size() != 0 ? problem.lb[i] : -kInfinity;
+    const double hi = problem.ub.size() != 0 ? problem.ub[i] : kInfinity;
+    const bool fixed = eq_row_of_var[i] >= 0;
+    has_lb[i] = !fixed && finite_side(lo) ? 1.0 : 0.0;
+    has_ub[i] = !fixed && finite_side(hi) ? 1.0 : 0.0;
+    lb[i] = has_lb[i] != 0.0 ? lo : 0.0;
+    ub[i] = has_ub[i] != 0.0 ? hi : 0.0;
+    if (fixed) {
+      E.row(eq_row_of_var[i]).setZero();
+      E(eq_row_of_var[i], i) = 1.0;
+      e[eq_row_of_var[i]] = 0.5 * (lo + hi);
+    }
+  }
+  for (int j = 0; j < m; ++j) {
+    const bool eq = eq_row_of_g[j] >= 0;
+    has_lg[j] = !eq && finite_side(problem.lg[j]) ? 1.0 : 0.0;
+    has_ug[j] = !eq && finite_side(problem.ug[j]) ? 1.0 : 0.0;
+    lg[j] = has_lg[j] != 0.0 ? problem.lg[j] : 0.0;
+    ug[j] = has_ug[j] != 0.0 ? problem.ug[j] : 0.0;
+    if (eq) {
+      E.row(eq_row_of_g[j]) = problem.G.row(j);
+      e[eq_row_of_g[j]] = 0.5 * (problem.lg[j] + problem.ug[j]);
+    }
+  }
+  if (p > 0) {
+    E.topRows(p) = problem.A;
+    e.head(p) = problem.b;
+  }
+  if (m > 0) Gt = problem.G.transpose();
+  num_inequalities = static_cast<int>(has_lb.sum() + has_ub.sum() + has_lg.sum() + has_ug.sum());
+  return true;
+}
+
+void QpSolver::Workspace::residuals() {
+  const QpProblem& pr = *q;
+  Hz.noalias() = pr.H * z;
+  if (m > 0) {
+    Gz.noalias() = pr.G * z;
+    cw_g = l_ug - l_lg;
+    Gtw.noalias() = Gt * cw_g.matrix();
+  } else {
+    Gtw.setZero();
+  }
+  if (ne > 0) {
+    Ety.noalias() = E.transpose() * y;
+    r_e.noalias() = E * z;
+    r_e -= e;
+  } else {
+    Ety.setZero();
+  }
+  r_d = Hz + pr.f + Gtw + Ety;
+  r_d.array() += l_ub - l_lb;
+  r_lb = has_lb * (z.array() - lb - s_lb);
+  r_ub = has_ub * (ub - z.array() - s_ub);
+  r_lg = has_lg * (Gz.array() - lg - s_lg);
+  r_ug = has_ug * (ug - Gz.array() - s_ug);
+}
+
+double QpSolver::Workspace::mu() const {
+  if (num_inequalities == 0) return 0.0;
+  return ((s_lb * l_lb).sum() + (s_ub * l_ub).sum() + (s_lg * l_lg).sum() +
+          (s_ug * l_ug).sum()) /
+         num_inequalities;
+}
+
+// Forms and factors the reduced matrix (2) at the current D = Λ S⁻¹. The primal
+// regularization keeps it definite when H is only semidefinite on free directions; it grows
+// by 100× when the factorization fails.
+bool QpSolver::Workspace::factor() {
+  const QpProblem& pr = *q;
+  d_b = has_lb * l_lb / s_lb + has_ub * l_ub / s_ub;
+  d_g = has_lg * l_lg / s_lg + has_ug * l_ug / s_ug;
+  M.triangularView<Eigen::Lower>() = pr.H;
+  M.diagonal() += d_b.matrix();
+  if (m > 0) {
+    sqrt_d_g = d_g.sqrt();
+    Wt.noalias() = Gt * sqrt_d_g.matrix().asDiagonal();
+    M.selfadjointView<Eigen::Lower>().rankUpdate(Wt);
+  }
+  const double scale = std::max(1.0, M.diagonal().cwiseAbs().maxCoeff());
+  reg_primal = 1e-12 * scale;
+  reg_dual = ne > 0 ? 1e-10 : 0.0;
+  for (int attempt = 0; attempt < 6; ++attempt) {
+    if (ne == 0) {
+      M.diagonal().array() += reg_primal;
+      llt.compute(M);
+      M.diagonal().array() -= reg_primal;
+      if (llt.info() == Eigen::Success) return true;
+    } else {
+      K.topLeftCorner(n, n).triangularView<Eigen::Lower>() = M;
+      K.topLeftCorner(n, n).diagonal().array() += reg_primal;
+      K.bottomLeftCorner(ne, n) = E;
+      K.bottomRightCorner(ne, ne).setZero();
+      K.bottomRightCorner(ne, ne).diagonal().setConstant(-reg_dual);
+      ldlt.compute(K);
+      if (ldlt.info() == Eigen::Success) {
+        // A quasi-definite factorization has n positive and ne negative pivots; anything
+        // else means E is (numerically) rank deficient at this regularization.
+        const auto& d = ldlt.vectorD();
+        int positive = 0;
+        for (Eigen::Index i = 0; i < d.size(); ++i) positive += d[i] > 0.0 ? 1 : 0;
+        if (positive == n && std::isfinite(d.sum())) return true;
+      }
+      reg_dual *= 100.0;
+    }
+    reg_primal *= 100.0;
+  }
+  return false;
+}
+
+// out = [H + D_b + Gᵀ D_g G, Eᵀ; E, 0] x without regularization.
+void QpSolver::Workspace::apply_reduced(const Vec& xz, const Vec& xy, Vec& out_z, Vec& out_y) {
+  const QpProblem& pr = *q;
+  out_z.noalias() = pr.H * xz;
+  out_z.array() += d_b * xz.array();
+  if (m > 0) {
+    tmp_m.noalias() = pr.G * xz;
+    tmp_m.array() *= d_g;
+    out_z.noalias() += Gt * tmp_m;
+  }
+  if (ne > 0) {
+    out_z.noalias() += E.transpose() * xy;
+    out_y.noalias() = E * xz;
+  }
+}
+
+// Solves (2) with the factorization, then refines against the unregularized operator until
+// the residual stops improving (at most three passes): the regularization then costs nothing
+// in the accuracy of the step.
+void QpSolver::Workspace::solve_reduced(const Vec& rz, const Vec& ry, Vec& out_z, Vec& out_y) {
+  auto raw_solve = [&](const Vec& bz, const Vec& by, Vec& xz, Vec& xy) {
+    if (ne == 0) {
+      xz = llt.solve(bz);
+    } else {
+      kkt_rhs.head(n) = bz;
+      kkt_rhs.tail(ne) = by;
+      kkt_sol = ldlt.solve(kkt_rhs);
+      xz = kkt_sol.head(n);
+      xy = kkt_sol.tail(ne);
+    }
+  };
+  raw_solve(rz, ry, out_z, out_y);
+  const double rhs_norm = std::max(inf_norm(rz), ne > 0 ? inf_norm(ry) : 0.0);
+  double previous = kInfinity;
+  for (int pass = 0; pass < 3; ++pass) {
+    apply_reduced(out_z, out_y, res_z, res_y);
+    res_z = rz - res_z;
+    if (ne > 0) res_y = ry - res_y;
+    const double r = std::max(inf_norm(res_z), ne > 0 ? inf_norm(res_y) : 0.0);
+    if (r <= 1e-14 * rhs_norm || r >= 0.5 * previous) break;
+    previous = r;
+    raw_solve(res_z, res_y, cz, cy);
+    out_z += cz;
+    if (ne > 0) out_y += cy;
+  }
+}
+
+// Newton direction of (1) for the complementarity residual c = s∘λ − target.
+void QpSolver::Workspace::direction(const Arr& c_lb, const Arr& c_ub, const Arr& c_lg,
+                                    const Arr& c_ug) {
+  q_b = has_lb * (c_lb + l_lb * r_lb) / s_lb - has_ub * (c_ub + l_ub * r_ub) / s_ub;
+  rhs_z = -r_d - q_b.matrix();
+  if (m > 0) {
+    q_g = has_lg * (c_lg + l_lg * r_lg) / s_lg - has_ug * (c_ug + l_ug * r_ug) / s_ug;
+    rhs_z.noalias() -= Gt * q_g.matrix();
+  }
+  if (ne > 0) rhs_y = -r_e;
+  solve_reduced(rhs_z, rhs_y, dz, dy);
+  ds_lb = has_lb * (dz.array() + r_lb);
+  ds_ub = has_ub * (r_ub - dz.array());
+  dl_lb = has_lb * (-c_lb - l_lb * ds_lb) / s_lb;
+  dl_ub = has_ub * (-c_ub - l_ub * ds_ub) / s_ub;
+  if (m > 0) {
+    Gdz.noalias() = q->G * dz;
+    ds_lg = has_lg * (Gdz.array() + r_lg);
+    ds_ug = has_ug * (r_ug - Gdz.array());
+    dl_lg = has_lg * (-c_lg - l_lg * ds_lg) / s_lg;
+    dl_ug = has_ug * (-c_ug - l_ug * ds_ug) / s_ug;
+  }
+}
+
+double QpSolver::Workspace::step_to_boundary() const {
+  double a = 1.0;
+  a = max_ratio(s_lb, ds_lb, has_lb, a);
+  a = max_ratio(s_ub, ds_ub, has_ub, a);
+  a = max_ratio(s_lg, ds_lg, has_lg, a);
+  a = max_ratio(s_ug, ds_ug, has_ug, a);
+  a = max_ratio(l_lb, dl_lb, has_lb, a);
+  a = max_ratio(l_ub, dl_ub, has_ub, a);
+  a = max_ratio(l_lg, dl_lg, has_lg, a);
+  a = max_ratio(l_ug, dl_ug, has_ug, a);
+  return a;
+}
+
+// Farkas test for w = (w_b, w_g, w_y), signed like the reported multipliers (+ upper, − lower).
+bool QpSolver::Workspace::primal_infeasible(const Arr& w_b, const Arr& w_g, const Vec& w_y,
+                                            double eps) {
+  const double norm_w = std::max({inf_norm(w_b), inf_norm(w_g), inf_norm(w_y)});
+  if (!(norm_w > 0.0) || !std::isfinite(norm_w)) return false;
+  // Support function Σ u_i w_i⁺ − l_i w_i⁻; +∞ when w pushes against an absent side.
+  double support = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (w_b[i] > 0.0) {
+      if (has_ub[i] == 0.0) return false;
+      support += ub[i] * w_b[i];
+    } else if (w_b[i] < 0.0) {
+      if (has_lb[i] == 0.0) return false;
+      support += lb[i] * w_b[i];
+    }
+  }
+  for (int j = 0; j < m; ++j) {
+    if (w_g[j] > 0.0) {
+      if (has_ug[j] == 0.0) return false;
+      support += ug[j] * w_g[j];
+    } else if (w_g[j] < 0.0) {
+      if (has_lg[j] == 0.0) return false;
+      support += lg[j] * w_g[j];
+    }
+  }
+  if (ne > 0) support += e.dot(w_y);
+  if (!(support < -eps * norm_w)) return false;
+  cand_z = w_b.matrix();
+  if (m > 0) cand_z.noalias() += Gt * w_g.matrix();
+  if (ne > 0) cand_z.noalias() += E.transpose() * w_y;
+  return inf_norm(cand_z) <= eps * norm_w;
+}
+
+// Recession-direction test for d: Hd = 0, fᵀd < 0, Kd within the constraints' recession cone.
+bool QpSolver::Workspace::dual_infeasible(const Vec& d, double eps) {
+  const double norm_d = inf_norm(d);
+  if (!(norm_d > 0.0) || !std::isfinite(norm_d)) return false;
+  const double tol = eps * norm_d;
+  if (!(q->f.dot(d) < -tol)) return false;
+  for (int i = 0; i < n; ++i) {
+    if ((has_lb[i] != 0.0 && d[i] < -tol) || (has_ub[i] != 0.0 && d[i] > tol)) return false;
+  }
+  if (m > 0) {
+    cand_gz.noalias() = q->G * d;
+    for (int j = 0; j < m; ++j) {
+      if ((has_lg[j] != 0.0 && cand_gz[j] < -tol) || (has_ug[j] != 0.0 && cand_gz[j] > tol)) {
+        return false;
+      }
+    }
+  }
+  if (ne > 0) {
+    cand_ez.noalias() = E * d;
+    if (inf_norm(cand_ez) > tol) return false;
+  }
+  cand_hz.noalias() = q->H * d;
+  return inf_norm(cand_hz) <= tol;
+}
+
+// Cold start in the manner of Mehrotra's LP heuristic: z minimizes the objective plus
+// ½Σ (distance to each finite side)², i.e. (2) with S = Λ = I, which pulls z toward the middle
+// of two-sided rows; slacks below 1 are lifted to 1 and all multipliers start at 1.
+void QpSolver::Workspace::cold_start() {
+  const QpProblem& pr = *q;
+  s_lb = Arr::Ones(n);
+  s_ub = Arr::Ones(n);
+  s_lg = Arr::Ones(m);
+  s_ug = Arr::Ones(m);
+  l_lb = has_lb;
+  l_ub = has_ub;
+  l_lg = has_lg;
+  l_ug = has_ug;
+  z.setZero();
+  if (ne > 0) y.setZero();
+  if (factor()) {
+    rhs_z = -pr.f;
+    rhs_z.array() += has_lb * lb + has_ub * ub;
+    if (m > 0) {
+      q_g = has_lg * lg + has_ug * ug;
+      rhs_z.noalias() += Gt * q_g.matrix();
+    }
+    if (ne > 0) rhs_y = e;
+    solve_reduced(rhs_z, rhs_y, z, y);
+    if (!z.allFinite()) z.setZero();
+    if (ne > 0 && !y.allFinite()) y.setZero();
+  }
+  if (m > 0) Gz.noalias() = pr.G * z;
+  const double floor = 1.0;
+  s_lb = has_lb * (z.array() - lb).max(floor) + (1.0 - has_lb);
+  s_ub = has_ub * (ub - z.array()).max(floor) + (1.0 - has_ub);
+  s_lg = has_lg * (Gz.array() - lg).max(floor) + (1.0 - has_lg);
+  s_ug = has_ug * (ug - Gz.array()).max(floor) + (1.0 - has_ug);
+}
+
+// Warm start: the previous primal–dual point, pushed back into the interior. At the previous
+// optimum active slacks and inactive multipliers are ~0, which would pin the first steps to
+// the boundary; lifting both to at least θ restores room to move while keeping the active
+// set the previous solution identified.
+void QpSolver::Workspace::warm_start() {
+  const QpProblem& pr = *q;
+  z = z_prev;
+  if (ne > 0) y = y_prev;
+  if (m > 0) Gz.noalias() = pr.G * z;
+  const double theta = kWarmStartShift;
+  s_lb = has_lb * (z.array() - lb).max(theta) + (1.0 - has_lb);
+  s_ub = has_ub * (ub - z.array()).max(theta) + (1.0 - has_ub);
+  s_lg = has_lg * (Gz.array() - lg).max(theta) + (1.0 - has_lg);
+  s_ug = has_ug * (ug - Gz.array()).max(theta) + (1.0 - has_ug);
+  l_lb = has_lb * p_lb.max(theta);
+  l_ub = has_ub * p_ub.max(theta);
+  l_lg = has_lg * p_lg.max(theta);
+  l_ug = has_ug * p_ug.max(theta);
+}
+
+QpStatus QpSolver::Workspace::iterate(const QpSettings& settings, int max_iterations,
+                                      int& iterations) {
+  const QpProblem& pr = *q;
+  const double tol = settings.tolerance;
+  const double eps_inf = settings.infeasibility_tolerance;
+  bool have_step = false;
+  int stalled = 0;
+  for (int k = 0;; ++k) {
+    iterations = k;
+    residuals();
+    const double primal = std::max({inf_norm(r_lb), inf_norm(r_ub), inf_norm(r_lg),
+                                    inf_norm(r_ug), ne > 0 ? inf_norm(r_e) : 0.0});
+    const double primal_scale =
+        std::max({1.0, inf_norm(z), inf_norm(Gz), ne > 0 ? inf_norm(e) : 0.0});
+    const double dual = inf_norm(r_d);
+    const double dual_scale = std::max({1.0, inf_norm(Hz), inf_norm(pr.f), inf_norm(Gtw),
+                                        inf_norm(l_ub - l_lb), inf_norm(Ety)});
+    const double mu_now = mu();
+    const double gap = mu_now * num_inequalities;
+    const double gap_scale = std::max({1.0, std::abs(z.dot(Hz)), std::abs(pr.f.dot(z))});
+    if (!std::isfinite(primal) || !std::isfinite(dual) || !std::isfinite(gap)) {
+      return QpStatus::kNumericalError;
+    }
+    if (primal <= tol * primal_scale && dual <= tol * dual_scale && gap <= tol * gap_scale) {
+      return QpStatus::kSolved;
+    }
+    if (k > 0) {
+      cw_b = l_ub - l_lb;
+      cw_g = l_ug - l_lg;
+      if (primal_infeasible(cw_b, cw_g, y, eps_inf)) return QpStatus::kPrimalInfeasible;
+      if (dual_infeasible(z, eps_inf)) return QpStatus::kDualInfeasible;
+      if (have_step) {
+        cw_b = dl_ub - dl_lb;
+        cw_g = dl_ug - dl_lg;
+        if (primal_infeasible(cw_b, cw_g, dy, eps_inf)) return QpStatus::kPrimalInfeasible;
+        if (dual_infeasible(dz, eps_inf)) return QpStatus::kDualInfeasible;
+      }
+    }
+    if (k >= max_iterations) return QpStatus::kIterationLimit;
+    if (!factor()) return QpStatus::kNumericalError;
+
+    double alpha = 1.0;
+    if (num_inequalities == 0) {
+      rc_lb.setZero();
+      rc_ub.setZero();
+      rc_lg.setZero();
+      rc_ug.setZero();
+      direction(rc_lb, rc_ub, rc_lg, rc_ug);
+    } else {
+      // Predictor: the affine-scaling direction (σ = 0).
+      rc_lb = s_lb * l_lb;
+      rc_ub = s_ub * l_ub;
+      rc_lg = s_lg * l_lg;
+      rc_ug = s_ug * l_ug;
+      direction(rc_lb, rc_ub, rc_lg, rc_ug);
+      const double a_aff = step_to_boundary();
+      const double mu_aff =
+          (((s_lb + a_aff * ds_lb) * (l_lb + a_aff * dl_lb)).sum() +
+           ((s_ub + a_aff * ds_ub) * (l_ub + a_aff * dl_ub)).sum() +
+           ((s_lg + a_aff * ds_lg) * (l_lg + a_aff * dl_lg)).sum() +
+           ((s_ug + a_aff * ds_ug) * (l_ug + a_aff * dl_ug)).sum()) /
+          num_inequalities;
+      const double ratio = mu_now > 0.0 ? std::clamp(mu_aff / mu_now, 0.0, 1.0) : 0.0;
+      const double sigma = ratio * ratio * ratio;
+      // Corrector: centring σμ plus the second-order term Δs_aff ∘ Δλ_aff.
+      const double target = sigma * mu_now;
+      rc_lb = has_lb * (s_lb * l_lb + ds_lb * dl_lb - target);
+      rc_ub = has_ub * (s_ub * l_ub + ds_ub * dl_ub - target);
+      rc_lg = has_lg * (s_lg * l_lg + ds_lg * dl_lg - target);
+      rc_ug = has_ug * (s_ug * l_ug + ds_ug * dl_ug - target);
+      direction(rc_lb, rc_ub, rc_lg, rc_ug);
+      alpha = std::min(1.0, kStepFraction * step_to_boundary());
+    }
+    if (!dz.allFinite() || (ne > 0 && !dy.allFinite())) return QpStatus::kNumericalError;
+    have_step = true;
+    z += alpha * dz;
+    if (ne > 0) y += alpha * dy;
+    s_lb += alpha * ds_lb;
+    s_ub += alpha * ds_ub;
+    s_lg += alpha * ds_lg;
+    s_ug += alpha * ds_ug;
+    l_lb += alpha * dl_lb;
+    l_ub += alpha * dl_ub;
+    l_lg += alpha * dl_lg;
+    l_ug += alpha * dl_ug;
+    stalled = alpha < 1e-10 ? stalled + 1 : 0;
+    if (stalled >= 5) {
+      iterations = k + 1;
+      residuals();
+      return QpStatus::kNumericalError;
+    }
+  }
+}
+
+void QpSolver::Workspace::fill_result(QpResult& r) {
+  const QpProblem& pr = *q;
+  r.z = z;
+  r.dual_bounds = (l_ub - l_lb).matrix();
+  r.dual_rows = (l_ug - l_lg).matrix();
+  r.dual_eq.resize(p);
+  if (p > 0) r.dual_eq = y.head(p);
+  for (int j = 0; j < m; ++j) {
+    if (eq_row_of_g[j] >= 0) r.dual_rows[j] = y[eq_row_of_g[j]];
+  }
+  for (int i = 0; i < n; ++i) {
+    if (eq_row_of_var[i] >= 0) r.dual_bounds[i] = y[eq_row_of_var[i]];
+  }
+  r.objective = 0.5 * z.dot(Hz) + pr.f.dot(z);
+  double violation = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (pr.lb.size() != 0 && finite_side(pr.lb[i])) violation = std::max(violation, pr.lb[i] - z[i]);
+    if (pr.ub.size() != 0 && finite_side(pr.ub[i])) violation = std::max(violation, z[i] - pr.ub[i]);
+  }
+  for (int j = 0; j < m; ++j) {
+    if (finite_side(pr.lg[j])) violation = std::max(violation, pr.lg[j] - Gz[j]);
+    if (finite_side(pr.ug[j])) violation = std::max(violation, Gz[j] - pr.ug[j]);
+  }
+  if (p > 0) {
+    for (int i = 0; i < p; ++i) violation = std::max(violation, std::abs(r_e[i]));
+  }
+  r.primal_residual = violation;
+  r.dual_residual = inf_norm(r_d);
+  r.duality_gap = mu() * num_inequalities;
+}
+
+const QpResult& QpSolver::solve(const QpProblem& problem) {
+  const auto start = std::chrono::steady_clock::now();
+  QpResult& r = result_;
+  r.iterations = 0;
+  if (!valid_input(problem)) {
+    r.status = QpStatus::kInvalidInput;
+    r.objective = r.primal_residual = r.dual_residual = r.duality_gap = 0.0;
+  } else {
+    Workspace& w = *workspace_;
+    w.setup(problem);
+    QpStatus status = QpStatus::kNumericalError;
+    int iterations = 0;
+    bool done = false;
+    if (settings_.warm_start && w.have_previous) {
+      w.warm_start();
+      status = w.iterate(settings_, std::min(settings_.max_iterations,
+                                             settings_.warm_start_max_iterations),
+                         iterations);
+      r.iterations = iterations;
+      done = status == QpStatus::kSolved || status == QpStatus::kPrimalInfeasible ||
+             status == QpStatus::kDualInfeasible;
+    }
+    if (!done) {
+      w.cold_start();
+      status = w.iterate(settings_, settings_.max_iterations, iterations);
+      r.iterations += iterations;
+    }
+    r.status = status;
+    w.fill_result(r);
+    if (status == QpStatus::kSolved) {
+      w.z_prev = w.z;
+      if (w.ne > 0) w.y_prev = w.y;
+      w.p_lb = w.l_lb;
+      w.p_ub = w.l_ub;
+      w.p_lg = w.l_lg;
+      w.p_ug = w.l_ug;
+      w.have_previous = true;
+    }
+  }
+  r.solve_time_us =
+      std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+}  // namespace ridgeline::qp

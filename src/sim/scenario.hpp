@@ -1,0 +1,133 @@
+// A mission scenario: the area and terrain, the team of UAVs, the inspection targets, the
+// sudden threats, the wind, and the parameters of every layer (DESIGN §7).
+//
+// These are plain values; the YAML file format that fills them lives in io/scenario_file.hpp
+// and its field paths (`uavs[1].vehicle.tau_v_s`) are the ones error messages name.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/types.hpp"
+#include "vehicle/vehicle_model.hpp"
+#include "world/terrain.hpp"
+#include "world/threat.hpp"
+#include "world/wind.hpp"
+
+namespace ridgeline::sim {
+
+/// Rectangular operating area in the local ENU frame.
+struct Area {
+  double x_min_m = 0.0;
+  double x_max_m = 2000.0;
+  double y_min_m = 0.0;
+  double y_max_m = 2000.0;
+
+  bool contains(double x_m, double y_m) const {
+    return x_m >= x_min_m && x_m <= x_max_m && y_m >= y_min_m && y_m <= y_max_m;
+  }
+};
+
+/// Hard altitude band of eq. 14, z in the terrain datum.
+struct AltitudeLimits {
+  double min_m = 40.0;
+  double max_m = 500.0;
+};
+
+/// Hard safety distances.
+struct SafetyMargins {
+  double terrain_clearance_m = 20.0;  ///< h_safe, eq. 19–20
+  double separation_m = 10.0;         ///< d_safe, eq. 21
+  double threat_margin_m = 10.0;      ///< r_safe: kept outside a threat sphere's surface
+};
+
+/// Where the terrain comes from: inline peaks (eq. 12) or a DEM raster.
+struct TerrainSource {
+  enum class Kind { kPeaks, kDem };
+  /// How a DEM is used: queried directly (bilinear) or through a peak field fitted to it.
+  enum class DemModel { kRaster, kFitted };
+
+  Kind kind = Kind::kPeaks;
+  world::PeakTerrainConfig peaks;  ///< kPeaks
+  std::string dem_path;            ///< kDem, resolved against the scenario file's folder
+  DemModel dem_model = DemModel::kRaster;
+  int dem_fit_peaks = 8;
+  world::PeakCombination dem_fit_combination = world::PeakCombination::kMax;
+};
+
+struct UavSpec {
+  std::string name;
+  vehicle::VehicleParams vehicle;
+  Vec3 start_position_m = Vec3::Zero();
+  double start_heading_rad = 0.0;
+  double start_speed_m_s = 10.0;
+  double sensor_range_m = 300.0;  ///< threats whose surface is this close are sensed
+};
+
+struct InspectionTarget {
+  std::string name;
+  Vec3 position_m = Vec3::Zero();
+  int priority = 1;                  ///< higher is visited first when allocation must choose
+  double inspection_radius_m = 30.0; ///< a pass this close (3-D) counts as an inspection
+};
+
+/// Parameters of the incremental MPC tracker (DESIGN §3).
+struct MpcConfig {
+  double control_period_s = 0.02;    ///< 50 Hz
+  double prediction_step_s = 0.1;    ///< Δt of the prediction model, may exceed the period
+  int horizon_steps = 40;            ///< Np
+  int control_horizon_steps = 10;    ///< Nc ≤ Np
+  double position_weight = 1.0;      ///< Q on each position output
+  Vec3 move_weights = Vec3(0.5, 5.0, 1.0);  ///< R̄ on Δv_c, Δω_c, Δw_c
+  Vec3 max_moves = Vec3(1.0, 0.5, 1.0);     ///< |Δu| per prediction step
+  double slack_weight = 1e5;         ///< penalty on soft-constraint slack
+};
+
+/// Parameters of the global cooperative planner (DESIGN §5, eq. 14–24).
+struct PlannerConfig {
+  int waypoints_per_uav = 100;
+  double max_turn_angle_rad = deg_to_rad(60.0);  ///< φ_max, eq. 17
+  double pitch_penalty = 100.0;                  ///< K_θ, eq. 16
+  double turn_penalty = 100.0;                   ///< K_φ, eq. 18
+  double weight_range = 1.0;                     ///< w1, eq. 23
+  double weight_pitch = 1.0;                     ///< w2
+  double weight_turn = 1.0;                      ///< w3
+  double weight_altitude = 0.1;                  ///< w4
+  double lambda_individual = 1.0;                ///< λ1, eq. 24
+  double lambda_collision = 10.0;                ///< λ2
+};
+
+struct SimulationConfig {
+  double duration_s = 600.0;
+  double truth_rate_hz = 200.0;
+  double message_rate_hz = 100.0;
+  double truth_time_constant_scale = 1.2;  ///< truth τ = scale × controller τ (model mismatch)
+  double position_noise_m = 0.1;           ///< std of each component of a position fix
+};
+
+struct Scenario {
+  std::string name = "unnamed";
+  std::uint64_t seed = 1;
+  Area area;
+  AltitudeLimits altitude;
+  SafetyMargins safety;
+  TerrainSource terrain;
+  std::vector<UavSpec> uavs;
+  std::vector<InspectionTarget> targets;
+  std::vector<world::Threat> threats;
+  world::WindConfig wind;
+  MpcConfig mpc;
+  PlannerConfig planner;
+  SimulationConfig simulation;
+};
+
+/// Checks a scenario's values and their consistency with the terrain: ranges, min below
+/// max, finite numbers, unique names, starts and targets inside the area, within the altitude
+/// band and above the terrain clearance, starts separated by d_safe. Returns every problem
+/// found, each naming its field path; an empty list means the scenario is valid.
+std::vector<InputError> validate(const Scenario& scenario, const world::Terrain& terrain);
+
+}  // namespace ridgeline::sim

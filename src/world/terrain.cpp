@@ -1,0 +1,171 @@
+#include "world/terrain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "core/error.hpp"
+
+namespace ridgeline::world {
+
+namespace {
+
+void require_finite(double value, const std::string& field) {
+  if (!std::isfinite(value)) throw InputError(field, fmt::format("must be finite, got {}", value));
+}
+
+void require_positive(double value, const std::string& field) {
+  if (!std::isfinite(value) || value <= 0.0) {
+    throw InputError(field, fmt::format("must be finite and > 0, got {}", value));
+  }
+}
+
+// h·e of one peak (eq. 12's term) at (x, y).
+double peak_value(const Peak& p, double x_m, double y_m) {
+  const double dx = (x_m - p.x_m) / p.sigma_x_m;
+  const double dy = (y_m - p.y_m) / p.sigma_y_m;
+  return p.height_m * std::exp(-(dx * dx + dy * dy));
+}
+
+Vec2 peak_gradient(const Peak& p, double value, double x_m, double y_m) {
+  return Vec2(-2.0 * value * (x_m - p.x_m) / (p.sigma_x_m * p.sigma_x_m),
+              -2.0 * value * (y_m - p.y_m) / (p.sigma_y_m * p.sigma_y_m));
+}
+
+}  // namespace
+
+void validate_peak_terrain_config(const PeakTerrainConfig& config, const std::string& path) {
+  require_finite(config.base_elevation_m, path + ".base_elevation_m");
+  if (!std::isfinite(config.model_error_m) || config.model_error_m < 0.0) {
+    throw InputError(path + ".model_error_m",
+                     fmt::format("must be finite and >= 0, got {}", config.model_error_m));
+  }
+  for (std::size_t i = 0; i < config.peaks.size(); ++i) {
+    const Peak& p = config.peaks[i];
+    const std::string at = fmt::format("{}.peaks[{}]", path, i);
+    require_finite(p.x_m, at + ".x_m");
+    require_finite(p.y_m, at + ".y_m");
+    require_positive(p.height_m, at + ".height_m");
+    require_positive(p.sigma_x_m, at + ".sigma_x_m");
+    require_positive(p.sigma_y_m, at + ".sigma_y_m");
+  }
+}
+
+PeakTerrain::PeakTerrain(PeakTerrainConfig config, const std::string& path)
+    : config_(std::move(config)) {
+  validate_peak_terrain_config(config_, path);
+}
+
+double PeakTerrain::height(double x_m, double y_m) const {
+  double field = 0.0;
+  if (config_.combination == PeakCombination::kSum) {
+    for (const Peak& p : config_.peaks) field += peak_value(p, x_m, y_m);
+  } else {
+    // Every term is > 0, so 0 is a valid identity for the max.
+    for (const Peak& p : config_.peaks) field = std::max(field, peak_value(p, x_m, y_m));
+  }
+  return config_.base_elevation_m + field;
+}
+
+Vec2 PeakTerrain::gradient(double x_m, double y_m) const {
+  Vec2 g = Vec2::Zero();
+  if (config_.combination == PeakCombination::kSum) {
+    for (const Peak& p : config_.peaks) g += peak_gradient(p, peak_value(p, x_m, y_m), x_m, y_m);
+    return g;
+  }
+  double best = -1.0;
+  const Peak* dominant = nullptr;
+  for (const Peak& p : config_.peaks) {
+    const double value = peak_value(p, x_m, y_m);
+    if (value > best) {
+      best = value;
+      dominant = &p;
+    }
+  }
+  if (dominant != nullptr) g = peak_gradient(*dominant, best, x_m, y_m);
+  return g;
+}
+
+RasterTerrain::RasterTerrain(RasterGrid grid, double model_error_m, const std::string& what)
+    : grid_(std::move(grid)), model_error_m_(model_error_m) {
+  validate_raster_grid(grid_, what);
+  if (!std::isfinite(model_error_m) || model_error_m < 0.0) {
+    throw InputError(what + ".model_error_m",
+                     fmt::format("must be finite and >= 0, got {}", model_error_m));
+  }
+}
+
+RasterTerrain::Cell RasterTerrain::locate(double x_m, double y_m) const {
+  Cell cell;
+  // One axis at a time: continuous index t = (coord − origin)/spacing, clamped to [0, n − 1];
+  // the cell is floor(t) except on the last centre, which belongs to the cell before it.
+  const auto axis = [](double coord, double origin, double spacing, int n, int& index,
+                       double& frac, bool& clamped) {
+    const double t = (coord - origin) / spacing;
+    const double t_max = static_cast<double>(n - 1);
+    clamped = !(t >= 0.0 && t <= t_max);  // also true for NaN, which then maps to index 0
+    const double tc = clamped ? (t > t_max ? t_max : 0.0) : t;
+    if (n == 1) {
+      index = 0;
+      frac = 0.0;
+      clamped = true;
+      return;
+    }
+    index = std::min(static_cast<int>(std::floor(tc)), n - 2);
+    frac = tc - index;
+  };
+  axis(x_m, grid_.origin_x_m, grid_.cell_x_m, grid_.cols, cell.col, cell.u, cell.clamped_x);
+  axis(y_m, grid_.origin_y_m, grid_.cell_y_m, grid_.rows, cell.row, cell.v, cell.clamped_y);
+  return cell;
+}
+
+double RasterTerrain::height(double x_m, double y_m) const {
+  const Cell c = locate(x_m, y_m);
+  const int c1 = std::min(c.col + 1, grid_.cols - 1);
+  const int r1 = std::min(c.row + 1, grid_.rows - 1);
+  const double h00 = grid_.at(c.row, c.col);
+  const double h01 = grid_.at(c.row, c1);
+  const double h10 = grid_.at(r1, c.col);
+  const double h11 = grid_.at(r1, c1);
+  return (1.0 - c.u) * (1.0 - c.v) * h00 + c.u * (1.0 - c.v) * h01 + (1.0 - c.u) * c.v * h10 +
+         c.u * c.v * h11;
+}
+
+Vec2 RasterTerrain::gradient(double x_m, double y_m) const {
+  const Cell c = locate(x_m, y_m);
+  const int c1 = std::min(c.col + 1, grid_.cols - 1);
+  const int r1 = std::min(c.row + 1, grid_.rows - 1);
+  const double h00 = grid_.at(c.row, c.col);
+  const double h01 = grid_.at(c.row, c1);
+  const double h10 = grid_.at(r1, c.col);
+  const double h11 = grid_.at(r1, c1);
+  Vec2 g;
+  g.x() = c.clamped_x ? 0.0 : ((1.0 - c.v) * (h01 - h00) + c.v * (h11 - h10)) / grid_.cell_x_m;
+  g.y() = c.clamped_y ? 0.0 : ((1.0 - c.u) * (h10 - h00) + c.u * (h11 - h01)) / grid_.cell_y_m;
+  return g;
+}
+
+RasterGrid sample_terrain(const Terrain& terrain, int rows, int cols, const Vec2& origin_m,
+                          const Vec2& cell_m) {
+  RasterGrid grid;
+  grid.rows = rows;
+  grid.cols = cols;
+  grid.origin_x_m = origin_m.x();
+  grid.origin_y_m = origin_m.y();
+  grid.cell_x_m = cell_m.x();
+  grid.cell_y_m = cell_m.y();
+  if (rows < 1 || cols < 1) {
+    throw InputError("sample_terrain", fmt::format("need rows, cols >= 1, got {} x {}", rows, cols));
+  }
+  grid.heights_m.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols));
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) grid.at(r, c) = terrain.height(grid.x_of_col(c), grid.y_of_row(r));
+  }
+  validate_raster_grid(grid, "sample_terrain");
+  return grid;
+}
+
+}  // namespace ridgeline::world

@@ -1,0 +1,246 @@
+#include "io/scenario_file.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+
+namespace ridgeline::io {
+namespace {
+
+using ::testing::HasSubstr;
+
+// The default scenario's YAML, mutated by `edit`, then loaded. Returns the error's text, or
+// "" when it loads.
+std::string load_error(const std::function<void(YAML::Node&)>& edit) {
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  edit(root);
+  YAML::Emitter out;
+  out << root;
+  try {
+    load_scenario(out.c_str(), "mutated.yaml", std::filesystem::temp_directory_path());
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ScenarioFile, DefaultScenarioLoadsAndMatchesTheDesign) {
+  const LoadedScenario loaded = load_default_scenario();
+  const sim::Scenario& s = loaded.scenario;
+  // DESIGN §7: 2 km square, 6–8 peaks of 80–300 m, 3 UAVs, 3 targets, 3 threats of 30–60 m
+  // moving 2–8 m/s, 2 m/s mean wind, MPC at 50 Hz.
+  EXPECT_DOUBLE_EQ(s.area.x_max_m - s.area.x_min_m, 2000.0);
+  EXPECT_DOUBLE_EQ(s.area.y_max_m - s.area.y_min_m, 2000.0);
+  ASSERT_GE(s.terrain.peaks.peaks.size(), 6u);
+  ASSERT_LE(s.terrain.peaks.peaks.size(), 8u);
+  for (const auto& p : s.terrain.peaks.peaks) {
+    EXPECT_GE(p.height_m, 80.0);
+    EXPECT_LE(p.height_m, 300.0);
+  }
+  EXPECT_EQ(s.uavs.size(), 3u);
+  EXPECT_EQ(s.targets.size(), 3u);
+  ASSERT_EQ(s.threats.size(), 3u);
+  for (const auto& t : s.threats) {
+    EXPECT_GE(t.radius_m, 30.0);
+    EXPECT_LE(t.radius_m, 60.0);
+    EXPECT_GE(t.velocity_m_s.norm(), 2.0);
+    EXPECT_LE(t.velocity_m_s.norm(), 8.0);
+  }
+  EXPECT_NEAR(s.wind.mean_m_s.norm(), 2.0, 1e-9);
+  EXPECT_NEAR(1.0 / s.mpc.control_period_s, 50.0, 1e-9);
+  EXPECT_NEAR(s.uavs[0].vehicle.max_pitch_rad, deg_to_rad(30.0), 1e-12);
+  EXPECT_DOUBLE_EQ(s.uavs[0].vehicle.min_speed_m_s(), 5.0);
+  EXPECT_DOUBLE_EQ(s.uavs[0].vehicle.max_speed_m_s(), 15.0);
+  // Starts in the south-west, targets in the north-east.
+  for (const auto& u : s.uavs) EXPECT_LT(u.start_position_m.head<2>().norm(), 500.0);
+  for (const auto& t : s.targets) EXPECT_GT(t.position_m.x() + t.position_m.y(), 2500.0);
+}
+
+TEST(ScenarioFile, UavVehicleBlockOverridesTheDefaults) {
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  root["uavs"][1]["vehicle"]["tau_v_s"] = 0.9;
+  YAML::Emitter out;
+  out << root;
+  const sim::Scenario s = parse_scenario(out.c_str(), "x.yaml", ".");
+  EXPECT_DOUBLE_EQ(s.uavs[1].vehicle.tau_v_s, 0.9);
+  EXPECT_DOUBLE_EQ(s.uavs[0].vehicle.tau_v_s, 0.5);
+  EXPECT_DOUBLE_EQ(s.uavs[1].vehicle.cruise_speed_m_s, 10.0);  // others inherited
+}
+
+TEST(ScenarioFile, SeedDerivesTheWindSeedUnlessGiven) {
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  YAML::Emitter a;
+  a << root;
+  root["seed"] = 7;
+  YAML::Emitter b;
+  b << root;
+  root["wind"]["seed"] = 99;
+  YAML::Emitter c;
+  c << root;
+  const auto sa = parse_scenario(a.c_str(), "a", "."), sb = parse_scenario(b.c_str(), "b", ".");
+  EXPECT_NE(sa.wind.seed, sb.wind.seed);
+  EXPECT_EQ(parse_scenario(c.c_str(), "c", ".").wind.seed, 99u);
+}
+
+TEST(ScenarioFile, MalformedYamlNamesLineAndColumn) {
+  try {
+    load_scenario("area: {x_min_m: 0,\nuavs: [", "broken.yaml", ".");
+    FAIL() << "expected an error";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("broken.yaml:"));
+    EXPECT_THAT(e.what(), HasSubstr("malformed YAML"));
+  }
+}
+
+TEST(ScenarioFile, MissingKeyIsNamed) {
+  EXPECT_THAT(load_error([](YAML::Node& r) { r.remove("targets"); }),
+              HasSubstr("targets: is required but missing"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["threats"][1].remove("radius_m"); }),
+              HasSubstr("threats[1].radius_m: is required but missing"));
+}
+
+TEST(ScenarioFile, MisspelledKeyIsRejectedWithASuggestion) {
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["threats"][0]["radus_m"] = 40;
+                r["threats"][0].remove("radius_m");
+              }),
+              HasSubstr("threats[0].radius_m: is required"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["wind"]["gust_sdt_m_s"] = 1.0; }),
+              HasSubstr("wind.gust_sdt_m_s: unknown key (did you mean 'gust_std_m_s'?)"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["colour"] = "red"; }),
+              HasSubstr("colour: unknown key"));
+}
+
+TEST(ScenarioFile, WrongTypeIsNamed) {
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["uavs"][2]["sensor_range_m"] = "far"; }),
+              HasSubstr("uavs[2].sensor_range_m: expected a number, got 'far'"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["targets"][0]["position_m"] = "here"; }),
+              HasSubstr("targets[0].position_m: expected a list of three numbers"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["mpc"]["horizon_steps"] = 12.5; }),
+              HasSubstr("mpc.horizon_steps: expected a whole number"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["uavs"] = 3; }),
+              HasSubstr("uavs: expected a list"));
+}
+
+TEST(ScenarioFile, NanAndInfinityAreRejected) {
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["wind"]["mean_m_s"][0] = ".nan"; }),
+              HasSubstr("wind.mean_m_s[0]: must be a finite number"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["area"]["x_max_m"] = ".inf"; }),
+              HasSubstr("area.x_max_m: must be a finite number"));
+}
+
+TEST(ScenarioFile, NegativeRadiusAndTimeConstantAreRejected) {
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["threats"][2]["radius_m"] = -5; }),
+              HasSubstr("threats[2].radius_m: must be > 0, got -5"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["vehicle"]["tau_omega_s"] = -0.1; }),
+              HasSubstr("uavs[0].vehicle.tau_omega_s: must be positive"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["terrain"]["peaks"][3]["sigma_x_m"] = 0; }),
+              HasSubstr("terrain.peaks[3].sigma_x_m: must be positive"));
+}
+
+TEST(ScenarioFile, MinAboveMaxIsRejected) {
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["altitude"]["min_m"] = 600; }),
+              HasSubstr("altitude.min_m: 600 must be below altitude.max_m (500)"));
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["threats"][0]["vanish_s"] = 10;
+              }),
+              HasSubstr("threats[0].vanish_s: must be later than appear_s (20), got 10"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["mpc"]["control_horizon_steps"] = 50; }),
+              HasSubstr("mpc.control_horizon_steps: must be in [1, horizon_steps = 40]"));
+}
+
+TEST(ScenarioFile, TargetInsideTheTerrainClearanceIsRejectedWithTheNumbers) {
+  // The tallest default peak is 300 m high at (900, 1250).
+  const std::string error = load_error([](YAML::Node& r) {
+    r["targets"][2]["position_m"] = std::vector<double>{900, 1250, 250};
+  });
+  EXPECT_THAT(error, HasSubstr("targets[2].position_m: 70.0 m below the terrain clearance "
+                               "(terrain 300.0 m + h_safe 20 m): it is inside the terrain"));
+}
+
+TEST(ScenarioFile, StartInsideTheTerrainClearanceIsRejected) {
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["uavs"][0]["start"]["position_m"] = std::vector<double>{600, 700, 230};
+              }),
+              HasSubstr("uavs[0].start.position_m: 10.0 m below the terrain clearance"));
+}
+
+TEST(ScenarioFile, OtherConsistencyChecks) {
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["uavs"][1]["name"] = "uav1"; }),
+              HasSubstr("uavs[1].name: 'uav1' is used twice"));
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["uavs"][1]["start"]["position_m"] = std::vector<double>{103, 133, 60};
+              }),
+              HasSubstr("uavs[1].start.position_m: 4.2 m from uavs[0] ('uav1'), closer than"));
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["targets"][0]["position_m"] = std::vector<double>{2500, 1000, 100};
+              }),
+              HasSubstr("targets[0].position_m: (2500.0, 1000.0) is outside the area"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["terrain"]["combination"] = "min"; }),
+              HasSubstr("terrain.combination: must be 'max' or 'sum', got 'min'"));
+}
+
+TEST(ScenarioFile, AllProblemsAreCollected) {
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  root["threats"][0]["radius_m"] = -1;
+  root["threats"][1]["radius_m"] = -2;
+  YAML::Emitter out;
+  out << root;
+  try {
+    load_scenario(out.c_str(), "two.yaml", ".");
+    FAIL();
+  } catch (const InvalidScenario& e) {
+    ASSERT_EQ(e.problems().size(), 2u);
+    EXPECT_EQ(e.problems()[1].field(), "threats[1].radius_m");
+    EXPECT_THAT(e.what(), HasSubstr("(and 1 more problem)"));
+  }
+}
+
+TEST(ScenarioFile, MissingFileIsNamed) {
+  try {
+    load_scenario_file("/nonexistent/dir/scenario.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("/nonexistent/dir/scenario.yaml"));
+    EXPECT_THAT(e.what(), HasSubstr("cannot read"));
+  }
+}
+
+TEST(ScenarioFile, TerrainIncludeIsResolvedAgainstTheScenarioFolder) {
+  const auto dir = std::filesystem::temp_directory_path() / "ridgeline_include_test";
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream t(dir / "fitted.yaml");
+    t << "terrain:\n  combination: sum\n  base_elevation_m: 5\n  model_error_m: 2.5\n"
+         "  peaks:\n    - {x_m: 1000, y_m: 1000, height_m: 100, sigma_x_m: 200, sigma_y_m: 200}\n"
+         "fit_report: {rmse_m: 0.8}\n";
+  }
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  root["terrain"] = YAML::Load("{include: fitted.yaml}");
+  YAML::Emitter out;
+  out << root;
+  const LoadedScenario loaded = load_scenario(out.c_str(), "s.yaml", dir);
+  EXPECT_EQ(loaded.scenario.terrain.peaks.combination, world::PeakCombination::kSum);
+  // 5 m base + 100 m peak at its centre.
+  EXPECT_NEAR(loaded.terrain->height(1000, 1000), 105.0, 1e-9);
+  EXPECT_DOUBLE_EQ(loaded.terrain->model_error_m(), 2.5);
+
+  root["terrain"] = YAML::Load("{include: missing.yaml}");
+  YAML::Emitter bad;
+  bad << root;
+  try {
+    load_scenario(bad.c_str(), "s.yaml", dir);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("terrain.include: cannot read file"));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace ridgeline::io

@@ -1,0 +1,225 @@
+#include "world/terrain.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/error.hpp"
+#include "core/random.hpp"
+#include "world/raster_grid.hpp"
+
+namespace ridgeline::world {
+namespace {
+
+PeakTerrainConfig two_peaks(PeakCombination combination) {
+  PeakTerrainConfig config;
+  config.combination = combination;
+  config.base_elevation_m = 12.5;
+  config.peaks = {{500.0, 600.0, 250.0, 150.0, 200.0}, {900.0, 700.0, 180.0, 120.0, 90.0}};
+  return config;
+}
+
+// Central finite difference of H; step 1e-3 m: truncation O(h²·H''') ~ 1e-9 and rounding
+// ~ 1e-16·300 m / 1e-3 m ~ 3e-11, both far below the 1e-6 tolerance used with it.
+Vec2 numeric_gradient(const Terrain& t, double x, double y, double step = 1e-3) {
+  return Vec2((t.height(x + step, y) - t.height(x - step, y)) / (2 * step),
+              (t.height(x, y + step) - t.height(x, y - step)) / (2 * step));
+}
+
+TEST(PeakTerrainTest, HeightsAtKnownPointsFollowEq12) {
+  const PeakTerrain max_terrain(two_peaks(PeakCombination::kMax));
+  const PeakTerrain sum_terrain(two_peaks(PeakCombination::kSum));
+  // At the first peak's centre its term is h = 250; the second contributes
+  // 180·exp(−(400/120)² − (100/90)²) ≈ 180·exp(−12.346) ≈ 7.77e-4 m.
+  const double second = 180.0 * std::exp(-std::pow(400.0 / 120.0, 2) - std::pow(100.0 / 90.0, 2));
+  EXPECT_NEAR(max_terrain.height(500, 600), 12.5 + 250.0, 1e-12);
+  EXPECT_NEAR(sum_terrain.height(500, 600), 12.5 + 250.0 + second, 1e-12);
+  // One sigma away along x: exp(−1).
+  EXPECT_NEAR(max_terrain.height(650, 600), 12.5 + 250.0 * std::exp(-1.0), 1e-12);
+  // Far away only the base is left (exp(−(10⁴/150)²) underflows to 0).
+  EXPECT_DOUBLE_EQ(max_terrain.height(1e4, 1e4), 12.5);
+  EXPECT_DOUBLE_EQ(sum_terrain.height(1e4, 1e4), 12.5);
+  // No peaks: the flat base plane.
+  PeakTerrainConfig flat;
+  flat.base_elevation_m = 3.0;
+  const PeakTerrain flat_terrain(flat);
+  EXPECT_DOUBLE_EQ(flat_terrain.height(1, 2), 3.0);
+  EXPECT_EQ(flat_terrain.gradient(1, 2), Vec2::Zero());
+}
+
+TEST(PeakTerrainTest, GradientMatchesCentralDifferencesForBothVariants) {
+  Rng rng(42);
+  for (const auto combination : {PeakCombination::kMax, PeakCombination::kSum}) {
+    const PeakTerrain terrain(two_peaks(combination));
+    for (int k = 0; k < 200; ++k) {
+      const double x = rng.uniform(200, 1200);
+      const double y = rng.uniform(300, 1000);
+      if (combination == PeakCombination::kMax) {
+        // Skip points within a finite-difference step of the kink where the peaks are equal.
+        const auto term = [](const Peak& p, double px, double py) {
+          return p.height_m * std::exp(-std::pow((px - p.x_m) / p.sigma_x_m, 2) -
+                                       std::pow((py - p.y_m) / p.sigma_y_m, 2));
+        };
+        const auto& peaks = terrain.config().peaks;
+        if (std::abs(term(peaks[0], x, y) - term(peaks[1], x, y)) < 1e-2) continue;
+      }
+      const Vec2 analytic = terrain.gradient(x, y);
+      const Vec2 numeric = numeric_gradient(terrain, x, y);
+      EXPECT_NEAR(analytic.x(), numeric.x(), 1e-6) << "at " << x << ", " << y;
+      EXPECT_NEAR(analytic.y(), numeric.y(), 1e-6) << "at " << x << ", " << y;
+    }
+  }
+}
+
+TEST(PeakTerrainTest, RejectsBadConfigNamingTheField) {
+  PeakTerrainConfig config = two_peaks(PeakCombination::kMax);
+  config.peaks.resize(4, config.peaks[0]);
+  config.peaks[3].sigma_x_m = 0.0;
+  try {
+    PeakTerrain terrain(config);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "terrain.peaks[3].sigma_x_m");
+    EXPECT_NE(e.reason().find("> 0"), std::string::npos) << e.reason();
+  }
+  config.peaks[3].sigma_x_m = 10.0;
+  config.peaks[1].height_m = std::numeric_limits<double>::quiet_NaN();
+  try {
+    PeakTerrain terrain(config);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "terrain.peaks[1].height_m");
+  }
+  config.peaks[1].height_m = 10.0;
+  config.peaks[2].y_m = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(PeakTerrain{config}, InputError);
+  config.peaks[2].y_m = 0.0;
+  config.model_error_m = -1.0;
+  EXPECT_THROW(PeakTerrain{config}, InputError);
+}
+
+RasterGrid plane_grid(double a, double b, double c) {
+  RasterGrid grid;
+  grid.rows = 5;
+  grid.cols = 7;
+  grid.origin_x_m = 100.0;
+  grid.origin_y_m = -50.0;
+  grid.cell_x_m = 30.0;
+  grid.cell_y_m = 20.0;
+  grid.heights_m.resize(35);
+  for (int r = 0; r < grid.rows; ++r) {
+    for (int col = 0; col < grid.cols; ++col) {
+      grid.at(r, col) = a * grid.x_of_col(col) + b * grid.y_of_row(r) + c;
+    }
+  }
+  return grid;
+}
+
+TEST(RasterTerrainTest, BilinearIsExactOnAPlane) {
+  // Bilinear interpolation reproduces any affine function; the only error is rounding.
+  const double a = 0.3, b = -0.7, c = 40.0;
+  const RasterTerrain terrain(plane_grid(a, b, c));
+  Rng rng(7);
+  for (int k = 0; k < 100; ++k) {
+    const double x = rng.uniform(100.0, 100.0 + 6 * 30.0);
+    const double y = rng.uniform(-50.0, -50.0 + 4 * 20.0);
+    EXPECT_NEAR(terrain.height(x, y), a * x + b * y + c, 1e-9);
+    EXPECT_NEAR(terrain.gradient(x, y).x(), a, 1e-12);
+    EXPECT_NEAR(terrain.gradient(x, y).y(), b, 1e-12);
+  }
+  // Cell centres return the samples exactly, including the four corners.
+  const RasterGrid& grid = terrain.grid();
+  EXPECT_DOUBLE_EQ(terrain.height(grid.x_of_col(0), grid.y_of_row(0)), grid.at(0, 0));
+  EXPECT_DOUBLE_EQ(terrain.height(grid.x_of_col(6), grid.y_of_row(4)), grid.at(4, 6));
+  EXPECT_DOUBLE_EQ(terrain.height(grid.x_of_col(3), grid.y_of_row(2)), grid.at(2, 3));
+}
+
+TEST(RasterTerrainTest, PointsOutsideClampToTheBorder) {
+  const double a = 0.3, b = -0.7, c = 40.0;
+  const RasterTerrain terrain(plane_grid(a, b, c));
+  // West of the grid at y inside: the west border's value, no x slope.
+  EXPECT_NEAR(terrain.height(0.0, -10.0), a * 100.0 + b * -10.0 + c, 1e-9);
+  EXPECT_EQ(terrain.gradient(0.0, -10.0).x(), 0.0);
+  EXPECT_NEAR(terrain.gradient(0.0, -10.0).y(), b, 1e-12);
+  // North-east beyond both borders: the corner value, flat.
+  EXPECT_NEAR(terrain.height(1e6, 1e6), a * 280.0 + b * 30.0 + c, 1e-9);
+  EXPECT_EQ(terrain.gradient(1e6, 1e6), Vec2::Zero());
+}
+
+TEST(RasterTerrainTest, GradientMatchesCentralDifferencesInsideCells) {
+  // A raster of a curved field: bilinear patches are not planes, so the gradient varies
+  // inside a cell; compare away from cell edges, where H is smooth.
+  PeakTerrainConfig config = two_peaks(PeakCombination::kSum);
+  const PeakTerrain peaks(config);
+  const RasterTerrain terrain(sample_terrain(peaks, 40, 50, Vec2(0.0, 0.0), Vec2(25.0, 30.0)));
+  Rng rng(3);
+  for (int k = 0; k < 200; ++k) {
+    const double col = std::floor(rng.uniform(0, 49)) + rng.uniform(0.05, 0.95);
+    const double row = std::floor(rng.uniform(0, 39)) + rng.uniform(0.05, 0.95);
+    const double x = col * 25.0, y = row * 30.0;
+    const Vec2 analytic = terrain.gradient(x, y);
+    const Vec2 numeric = numeric_gradient(terrain, x, y);
+    EXPECT_NEAR(analytic.x(), numeric.x(), 1e-6);
+    EXPECT_NEAR(analytic.y(), numeric.y(), 1e-6);
+  }
+}
+
+TEST(RasterTerrainTest, SampledPeakTerrainInterpolatesCloseToTheField) {
+  // Bilinear error of a C² field: |e| <= (Δx²·max|H_xx| + Δy²·max|H_yy|)/8. For a peak
+  // |∂²(h·e)/∂x²| <= 2h/a² (at its centre), and the `sum` field's curvature is at most the sum
+  // of its peaks'. (The `max` field has kinks where bilinear error is not bounded this way.)
+  const PeakTerrainConfig config = two_peaks(PeakCombination::kSum);
+  const PeakTerrain peaks(config);
+  const double cell_m = 10.0;
+  double hxx = 0.0, hyy = 0.0;
+  for (const Peak& p : config.peaks) {
+    hxx += 2.0 * p.height_m / (p.sigma_x_m * p.sigma_x_m);
+    hyy += 2.0 * p.height_m / (p.sigma_y_m * p.sigma_y_m);
+  }
+  const double bound_m = cell_m * cell_m * (hxx + hyy) / 8.0;
+  const RasterTerrain terrain(
+      sample_terrain(peaks, 121, 151, Vec2(0.0, 0.0), Vec2(cell_m, cell_m)));
+  Rng rng(11);
+  double worst = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    const double x = rng.uniform(0, 1500), y = rng.uniform(0, 1200);
+    worst = std::max(worst, std::abs(terrain.height(x, y) - peaks.height(x, y)));
+  }
+  EXPECT_LE(worst, bound_m);
+  // The bound is attained only at the peaks' centres with both axes at mid-cell; the
+  // observed error should be a sizeable fraction of it, i.e. the check is not vacuous.
+  EXPECT_GT(worst, 0.1 * bound_m);
+}
+
+TEST(RasterTerrainTest, RejectsBadGrids) {
+  RasterGrid grid = plane_grid(0, 0, 1);
+  grid.heights_m.pop_back();
+  EXPECT_THROW(RasterTerrain{grid}, InputError);
+  grid = plane_grid(0, 0, 1);
+  grid.cell_y_m = 0.0;
+  EXPECT_THROW(RasterTerrain{grid}, InputError);
+  grid = plane_grid(0, 0, 1);
+  grid.heights_m[3] = std::numeric_limits<double>::quiet_NaN();
+  try {
+    RasterTerrain terrain(grid, 0.0, "dem.tif");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "dem.tif");
+    EXPECT_NE(e.reason().find("row 0, col 3"), std::string::npos) << e.reason();
+  }
+}
+
+TEST(RasterTerrainTest, SingleRowGridIsConstantAcrossRows) {
+  RasterGrid grid;
+  grid.rows = 1;
+  grid.cols = 3;
+  grid.heights_m = {0.0, 10.0, 30.0};
+  const RasterTerrain terrain(grid);
+  EXPECT_DOUBLE_EQ(terrain.height(0.5, 123.0), 5.0);
+  EXPECT_DOUBLE_EQ(terrain.gradient(1.5, -4.0).x(), 20.0);
+  EXPECT_DOUBLE_EQ(terrain.gradient(1.5, -4.0).y(), 0.0);
+}
+
+}  // namespace
+}  // namespace ridgeline::world
