@@ -321,7 +321,10 @@ void IncrementalMpc::assemble_qp() {
 void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   const IncrementalMpcData& d = data_;
   const int nU = nc_ * nu_;
-  const bool usable = qp_result.z.size() == nz_ && qp_result.z.allFinite();
+  // Only a solved QP's moves are used; otherwise the result describes the zero-move plan
+  // (inputs held), which is what a caller falls back to.
+  const bool usable = qp_result.status == qp::QpStatus::kSolved && qp_result.z.size() == nz_ &&
+                      qp_result.z.allFinite();
   if (usable) {
     result_.moves = qp_result.z.head(nU);
     result_.slack = qp_result.z.tail(ng_).cwiseMax(0.0);

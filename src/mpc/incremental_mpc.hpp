@@ -121,7 +121,8 @@ struct IncrementalMpcData {
   VecX soft_bound;              ///< capacity
 };
 
-/// Outcome of one step.
+/// Outcome of one step. Unless the QP was solved, the moves are zero and the predictions
+/// are the free response (inputs held), i.e. the plan a caller falls back to.
 struct IncrementalMpcResult {
   qp::QpStatus qp_status = qp::QpStatus::kInvalidInput;
   /// Empty when the data were consistent; otherwise the name of the offending field
@@ -167,7 +168,11 @@ class IncrementalMpc {
   const MatX& F() const { return F_; }
   const MatX& Phi() const { return Phi_; }
   const VecX& known_response() const { return Yw_; }
+  /// Y_free = F ξ_k + Y_w: the outputs predicted with every move zero (inputs held).
+  const VecX& free_response() const { return Yfree_; }
   const qp::QpProblem& qp_problem() const { return qp_; }
+  /// The QP solver's full report of the last solve (residuals, gap, multipliers).
+  const qp::QpResult& qp_result() const { return solver_.last_result(); }
 
  private:
   std::string_view check_data() const;

@@ -40,6 +40,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#ifdef RIDGELINE_QP_TRACE
+#include <cstdio>
+#endif
 
 #include <Eigen/Cholesky>
 
@@ -135,7 +138,7 @@ bool is_equality(double lo, double hi) {
 
 template <typename Derived>
 double inf_norm(const Eigen::DenseBase<Derived>& v) {
-  return v.size() == 0 ? 0.0 : v.cwiseAbs().maxCoeff();
+  return v.size() == 0 ? 0.0 : v.derived().array().abs().maxCoeff();
 }
 
 // Largest α ≤ 1 with x + α dx ≥ 0 where mask is set.
@@ -147,6 +150,8 @@ double max_ratio(const Arr& x, const Arr& dx, const Arr& mask, double alpha) {
 }
 
 }  // namespace
+int g_cold_mode = 3;
+double g_theta = 1e-6;
 
 struct QpSolver::Workspace {
   // Sizes of the user's problem and of the internal equality block E.
@@ -173,13 +178,13 @@ struct QpSolver::Workspace {
   Arr r_lb, r_ub, r_lg, r_ug, rc_lb, rc_ub, rc_lg, rc_ug;
   Arr ds_lb, ds_ub, ds_lg, ds_ug, dl_lb, dl_ub, dl_lg, dl_ug;
   Arr as_lb, as_ub, as_lg, as_ug, al_lb, al_ub, al_lg, al_ug;  // affine step
-  Arr d_b, d_g, q_b, q_g, sqrt_d_g, cw_b, cw_g;
+  Arr d_b, d_g, q_b, q_g, g_row_norm2, cw_b, cw_g;
   Vec cw_y;
   Mat Gt, M, Wt, K;
   Eigen::LLT<Mat> llt;
   Eigen::LDLT<Mat> ldlt;
   double reg_primal = 0.0, reg_dual = 0.0;
-  bool last_step_valid = false;
+  bool refine = false;  // whether the regularization is large enough to need refinement
 
   bool setup(const QpProblem& problem);
   void cold_start();
@@ -220,7 +225,7 @@ bool QpSolver::Workspace::setup(const QpProblem& problem) {
     }
     for (Arr* a : {&lg, &ug, &has_lg, &has_ug, &s_lg, &s_ug, &l_lg, &l_ug, &p_lg, &p_ug, &r_lg,
                    &r_ug, &rc_lg, &rc_ug, &ds_lg, &ds_ug, &dl_lg, &dl_ug, &as_lg, &as_ug,
-                   &al_lg, &al_ug, &d_g, &q_g, &sqrt_d_g, &cw_g}) {
+                   &al_lg, &al_ug, &d_g, &q_g, &g_row_norm2, &cw_g}) {
       a->setZero(m);
     }
     for (Vec* v : {&z, &z_prev, &Hz, &Gtw, &Ety, &r_d, &rhs_z, &dz, &tmp_n, &res_z, &cz, &cand_z,
@@ -295,7 +300,10 @@ bool QpSolver::Workspace::setup(const QpProblem& problem) {
     E.topRows(p) = problem.A;
     e.head(p) = problem.b;
   }
-  if (m > 0) Gt = problem.G.transpose();
+  if (m > 0) {
+    Gt = problem.G.transpose();
+    g_row_norm2 = Gt.colwise().squaredNorm().transpose().array();
+  }
   num_inequalities = static_cast<int>(has_lb.sum() + has_ub.sum() + has_lg.sum() + has_ug.sum());
   return true;
 }
@@ -341,15 +349,25 @@ bool QpSolver::Workspace::factor() {
   d_g = has_lg * l_lg / s_lg + has_ug * l_ug / s_ug;
   M.triangularView<Eigen::Lower>() = pr.H;
   M.diagonal() += d_b.matrix();
-  if (m > 0) {
-    sqrt_d_g = d_g.sqrt();
-    Wt.noalias() = Gt * sqrt_d_g.matrix().asDiagonal();
-    M.selfadjointView<Eigen::Lower>().rankUpdate(Wt);
-  }
-  const double scale = std::max(1.0, M.diagonal().cwiseAbs().maxCoeff());
+  // Relative to H, not to D: D grows without bound on active constraints, and regularization
+  // of that size would swamp the reduced Hessian on the active constraints' null space.
+  const double scale = std::max(1.0, pr.H.diagonal().cwiseAbs().maxCoeff());
   reg_primal = 1e-12 * scale;
+  if (m > 0) {
+    // Rows far from active (D_j ‖g_j‖² below the regularization) change M by less than the
+    // regularization does; leaving them out of the rank update makes late iterations cheaper.
+    int kept = 0;
+    const double drop_below = reg_primal;
+    for (int j = 0; j < m; ++j) {
+      if (d_g[j] * g_row_norm2[j] > drop_below) {
+        Wt.col(kept++) = std::sqrt(d_g[j]) * Gt.col(j);
+      }
+    }
+    if (kept > 0) M.selfadjointView<Eigen::Lower>().rankUpdate(Wt.leftCols(kept));
+  }
   reg_dual = ne > 0 ? 1e-10 : 0.0;
   for (int attempt = 0; attempt < 6; ++attempt) {
+    refine = attempt > 0 || ne > 0;
     if (ne == 0) {
       M.diagonal().array() += reg_primal;
       llt.compute(M);
@@ -409,6 +427,7 @@ void QpSolver::Workspace::solve_reduced(const Vec& rz, const Vec& ry, Vec& out_z
     }
   };
   raw_solve(rz, ry, out_z, out_y);
+  if (!refine) return;
   const double rhs_norm = std::max(inf_norm(rz), ne > 0 ? inf_norm(ry) : 0.0);
   double previous = kInfinity;
   for (int pass = 0; pass < 3; ++pass) {
@@ -552,6 +571,15 @@ void QpSolver::Workspace::cold_start() {
   s_ub = has_ub * (ub - z.array()).max(floor) + (1.0 - has_ub);
   s_lg = has_lg * (Gz.array() - lg).max(floor) + (1.0 - has_lg);
   s_ug = has_ug * (ug - Gz.array()).max(floor) + (1.0 - has_ug);
+  if (g_cold_mode == 1) {
+    l_lb = has_lb / s_lb; l_ub = has_ub / s_ub; l_lg = has_lg / s_lg; l_ug = has_ug / s_ug;
+  } else if (g_cold_mode == 2) {
+    const double c = std::max(1.0, inf_norm(pr.f)) ;
+    l_lb = c*has_lb / s_lb; l_ub = c*has_ub / s_ub; l_lg = c*has_lg / s_lg; l_ug = c*has_ug / s_ug;
+  } else if (g_cold_mode == 3) {
+    const double c = std::sqrt(std::max(1.0, inf_norm(pr.f))) ;
+    l_lb = c*has_lb / s_lb; l_ub = c*has_ub / s_ub; l_lg = c*has_lg / s_lg; l_ug = c*has_ug / s_ug;
+  }
 }
 
 // Warm start: the previous primal–dual point, pushed back into the interior. At the previous
@@ -563,7 +591,7 @@ void QpSolver::Workspace::warm_start() {
   z = z_prev;
   if (ne > 0) y = y_prev;
   if (m > 0) Gz.noalias() = pr.G * z;
-  const double theta = kWarmStartShift;
+  const double theta = g_theta;
   s_lb = has_lb * (z.array() - lb).max(theta) + (1.0 - has_lb);
   s_ub = has_ub * (ub - z.array()).max(theta) + (1.0 - has_ub);
   s_lg = has_lg * (Gz.array() - lg).max(theta) + (1.0 - has_lg);
@@ -597,6 +625,10 @@ QpStatus QpSolver::Workspace::iterate(const QpSettings& settings, int max_iterat
     if (!std::isfinite(primal) || !std::isfinite(dual) || !std::isfinite(gap)) {
       return QpStatus::kNumericalError;
     }
+#ifdef RIDGELINE_QP_TRACE
+    std::fprintf(stderr, "k %2d pr %.2e/%.1e du %.2e/%.1e gap %.2e/%.1e mu %.2e reg %.1e\n", k,
+                 primal, primal_scale, dual, dual_scale, gap, gap_scale, mu_now, reg_primal);
+#endif
     if (primal <= tol * primal_scale && dual <= tol * dual_scale && gap <= tol * gap_scale) {
       return QpStatus::kSolved;
     }

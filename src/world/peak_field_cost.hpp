@@ -11,13 +11,13 @@
 //   ∂v/∂a = 2v(x − x_i)²/a³,   ∂v/∂b = 2v(y − y_i)²/b³.
 #pragma once
 
+#include <ceres/cost_function.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <limits>
 #include <vector>
-
-#include <ceres/cost_function.h>
 
 namespace ridgeline::world::fit_detail {
 

@@ -23,10 +23,10 @@ namespace ridgeline::world {
 struct RasterGrid {
   int rows = 0;
   int cols = 0;
-  double origin_x_m = 0.0;  ///< x of the south-west cell's centre
-  double origin_y_m = 0.0;  ///< y of the south-west cell's centre
-  double cell_x_m = 1.0;    ///< spacing of columns (east), > 0
-  double cell_y_m = 1.0;    ///< spacing of rows (north), > 0
+  double origin_x_m = 0.0;        ///< x of the south-west cell's centre
+  double origin_y_m = 0.0;        ///< y of the south-west cell's centre
+  double cell_x_m = 1.0;          ///< spacing of columns (east), > 0
+  double cell_y_m = 1.0;          ///< spacing of rows (north), > 0
   std::vector<double> heights_m;  ///< rows·cols heights, row-major, row 0 south
 
   double& at(int row, int col) {
@@ -66,8 +66,8 @@ inline void validate_raster_grid(const RasterGrid& grid, const std::string& what
   }
   for (std::size_t i = 0; i < expected; ++i) {
     if (!std::isfinite(grid.heights_m[i])) {
-      throw InputError(what, "raster height at row " + std::to_string(i / grid.cols) +
-                                 ", col " + std::to_string(i % grid.cols) + " is not finite");
+      throw InputError(what, "raster height at row " + std::to_string(i / grid.cols) + ", col " +
+                                 std::to_string(i % grid.cols) + " is not finite");
     }
   }
 }

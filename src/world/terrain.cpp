@@ -1,11 +1,11 @@
 #include "world/terrain.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <string>
 #include <utility>
-
-#include <fmt/format.h>
 
 #include "core/error.hpp"
 
@@ -102,8 +102,8 @@ RasterTerrain::Cell RasterTerrain::locate(double x_m, double y_m) const {
   Cell cell;
   // One axis at a time: continuous index t = (coord − origin)/spacing, clamped to [0, n − 1];
   // the cell is floor(t) except on the last centre, which belongs to the cell before it.
-  const auto axis = [](double coord, double origin, double spacing, int n, int& index,
-                       double& frac, bool& clamped) {
+  const auto axis = [](double coord, double origin, double spacing, int n, int& index, double& frac,
+                       bool& clamped) {
     const double t = (coord - origin) / spacing;
     const double t_max = static_cast<double>(n - 1);
     clamped = !(t >= 0.0 && t <= t_max);  // also true for NaN, which then maps to index 0
@@ -158,11 +158,13 @@ RasterGrid sample_terrain(const Terrain& terrain, int rows, int cols, const Vec2
   grid.cell_x_m = cell_m.x();
   grid.cell_y_m = cell_m.y();
   if (rows < 1 || cols < 1) {
-    throw InputError("sample_terrain", fmt::format("need rows, cols >= 1, got {} x {}", rows, cols));
+    throw InputError("sample_terrain",
+                     fmt::format("need rows, cols >= 1, got {} x {}", rows, cols));
   }
   grid.heights_m.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols));
   for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) grid.at(r, c) = terrain.height(grid.x_of_col(c), grid.y_of_row(r));
+    for (int c = 0; c < cols; ++c)
+      grid.at(r, c) = terrain.height(grid.x_of_col(c), grid.y_of_row(r));
   }
   validate_raster_grid(grid, "sample_terrain");
   return grid;

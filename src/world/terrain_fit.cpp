@@ -1,14 +1,14 @@
 #include "world/terrain_fit.hpp"
 
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <vector>
-
-#include <ceres/ceres.h>
-#include <fmt/format.h>
 
 #include "core/error.hpp"
 #include "world/peak_field_cost.hpp"
@@ -22,7 +22,7 @@ using fit_detail::kPeakParams;
 using fit_detail::PeakFieldCost;
 using fit_detail::Samples;
 
-constexpr int kSamplesPerBlock = 512;    // residuals per Ceres residual block
+constexpr int kSamplesPerBlock = 512;  // residuals per Ceres residual block
 constexpr double kMinPeakHeight_m = 1e-3;
 
 // The model of the current parameters, evaluated exactly (max or sum).
@@ -174,7 +174,8 @@ SeedingResult seed_peaks(const SeedGrid& g, const TerrainFitOptions& options, do
   for (const Candidate& cand : candidates) {
     if (static_cast<int>(chosen.size()) >= options.num_peaks) break;
     double col_height = base;
-    for (const Candidate& s : chosen) col_height = std::max(col_height, line_min(cand.r, cand.c, s.r, s.c));
+    for (const Candidate& s : chosen)
+      col_height = std::max(col_height, line_min(cand.r, cand.c, s.r, s.c));
     if (cand.z - col_height < min_prominence) continue;
     chosen.push_back(cand);
     const double top = cand.z - base;
@@ -271,8 +272,9 @@ std::string TerrainFitResult::brief_report() const {
       rmse_m, max_residual_m, initial_rmse_m, iterations, time_s, num_samples, stride);
   for (std::size_t i = 0; i < terrain.peaks.size(); ++i) {
     const Peak& p = terrain.peaks[i];
-    out += fmt::format("  peak {}: x {:.1f} m, y {:.1f} m, height {:.1f} m, sigma {:.1f} x {:.1f} m\n",
-                       i, p.x_m, p.y_m, p.height_m, p.sigma_x_m, p.sigma_y_m);
+    out +=
+        fmt::format("  peak {}: x {:.1f} m, y {:.1f} m, height {:.1f} m, sigma {:.1f} x {:.1f} m\n",
+                    i, p.x_m, p.y_m, p.height_m, p.sigma_x_m, p.sigma_y_m);
   }
   return out;
 }
@@ -334,7 +336,8 @@ TerrainFitResult fit_peak_terrain(const RasterGrid& grid, const TerrainFitOption
     for (int r = 0; r < grid.rows; ++r) {
       const double y = grid.y_of_row(r) - cy;
       for (int c = 0; c < grid.cols; ++c) {
-        const double e = model_height(peaks, base, K, sum, grid.x_of_col(c) - cx, y) - grid.at(r, c);
+        const double e =
+            model_height(peaks, base, K, sum, grid.x_of_col(c) - cx, y) - grid.at(r, c);
         sq += e * e;
         max_abs = std::max(max_abs, std::abs(e));
       }
@@ -354,7 +357,8 @@ TerrainFitResult fit_peak_terrain(const RasterGrid& grid, const TerrainFitOption
     ceres::Problem::Options problem_options;
     ceres::Problem problem(problem_options);
     std::vector<double*> blocks{&base};
-    for (int i = 0; i < K; ++i) blocks.push_back(&params[static_cast<std::size_t>(i) * kPeakParams]);
+    for (int i = 0; i < K; ++i)
+      blocks.push_back(&params[static_cast<std::size_t>(i) * kPeakParams]);
     for (int begin = 0; begin < n; begin += kSamplesPerBlock) {
       const int count = std::min(kSamplesPerBlock, n - begin);
       problem.AddResidualBlock(new PeakFieldCost(&samples, begin, count, K, combine, beta), nullptr,
@@ -421,8 +425,7 @@ TerrainFitResult fit_peak_terrain(const RasterGrid& grid, const TerrainFitOption
   }
   std::stable_sort(terrain.peaks.begin(), terrain.peaks.end(),
                    [](const Peak& a, const Peak& b) { return a.height_m > b.height_m; });
-  result.time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

@@ -54,24 +54,24 @@ struct TerrainFitOptions {
 };
 
 enum class TerrainFitStatus {
-  kConverged,         ///< a tolerance was met
-  kMaxIterations,     ///< stopped at max_iterations; the model is the best found so far
-  kFailed,            ///< the solver reported a numerical failure
+  kConverged,      ///< a tolerance was met
+  kMaxIterations,  ///< stopped at max_iterations; the model is the best found so far
+  kFailed,         ///< the solver reported a numerical failure
 };
 const char* to_string(TerrainFitStatus status);
 
 struct TerrainFitResult {
   TerrainFitStatus status = TerrainFitStatus::kFailed;
-  std::string message;              ///< solver's own words for the last stage
-  PeakTerrainConfig terrain;        ///< fitted field; model_error_m = max_residual_m
-  double rmse_m = 0.0;              ///< over the full raster
-  double max_residual_m = 0.0;      ///< max |H − z| over the full raster
-  double initial_rmse_m = 0.0;      ///< of the seeded model, full raster
-  int iterations = 0;               ///< LM iterations, all stages
-  double time_s = 0.0;              ///< wall time of the whole fit (seeding and evaluation too)
-  int stride = 1;                   ///< subsampling stride used
-  int num_samples = 0;              ///< samples in the least-squares problem
-  int num_seeds_from_maxima = 0;    ///< seeds that were prominent local maxima
+  std::string message;        ///< solver's own words for the last stage
+  PeakTerrainConfig terrain;  ///< fitted field, peaks highest first; model_error_m = max_residual_m
+  double rmse_m = 0.0;        ///< over the full raster
+  double max_residual_m = 0.0;    ///< max |H − z| over the full raster
+  double initial_rmse_m = 0.0;    ///< of the seeded model, full raster
+  int iterations = 0;             ///< LM iterations, all stages
+  double time_s = 0.0;            ///< wall time of the whole fit (seeding and evaluation too)
+  int stride = 1;                 ///< subsampling stride used
+  int num_samples = 0;            ///< samples in the least-squares problem
+  int num_seeds_from_maxima = 0;  ///< seeds that were prominent local maxima
 
   /// One paragraph: status, peaks, RMSE, max residual, iterations, time.
   std::string brief_report() const;

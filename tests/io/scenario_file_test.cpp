@@ -1,5 +1,7 @@
 #include "io/scenario_file.hpp"
 
+#include "io/dem_file.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -240,6 +242,72 @@ TEST(ScenarioFile, TerrainIncludeIsResolvedAgainstTheScenarioFolder) {
     EXPECT_THAT(e.what(), HasSubstr("terrain.include: cannot read file"));
   }
   std::filesystem::remove_all(dir);
+}
+
+// A DEM sampled from the default peaks, at 20 m cells over the 2 km area, placed so that its
+// local frame (origin at the raster's south-west corner) matches the scenario's.
+class DemScenario : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / "ridgeline_dem_scenario_test";
+    std::filesystem::create_directories(dir_);
+    const LoadedScenario reference = load_default_scenario();
+    peaks_ = reference.terrain;
+    const world::RasterGrid grid = world::sample_terrain(*peaks_, 100, 100, Vec2(10, 10), Vec2(20, 20));
+    write_dem_geotiff(dir_ / "utm.tif", grid, 32632);     // UTM 32N: metres
+    write_dem_geotiff(dir_ / "degrees.tif", grid, 4326);  // the same numbers read as degrees
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  std::string scenario_with_terrain(const std::string& terrain_yaml) {
+    YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+    root["terrain"] = YAML::Load(terrain_yaml);
+    YAML::Emitter out;
+    out << root;
+    return out.c_str();
+  }
+
+  std::filesystem::path dir_;
+  std::shared_ptr<const world::Terrain> peaks_;
+};
+
+TEST_F(DemScenario, RasterTerrainFollowsTheDem) {
+  const LoadedScenario loaded =
+      load_scenario(scenario_with_terrain("{dem: {path: utm.tif, model: raster}}"), "s.yaml", dir_);
+  // Bilinear interpolation of 20 m samples of peaks with σ ≥ 120 m: the error is below
+  // (Δ²/8)·max|H''| ≈ 50·(2·300/120²) ≈ 2 m; at cell centres it is exact.
+  double max_error = 0.0;
+  for (double x = 100; x < 1900; x += 37) {
+    for (double y = 100; y < 1900; y += 41)
+      max_error = std::max(max_error, std::abs(loaded.terrain->height(x, y) - peaks_->height(x, y)));
+  }
+  EXPECT_LT(max_error, 2.5);
+  EXPECT_NEAR(loaded.terrain->height(910, 1250), peaks_->height(910, 1250), 1e-6);
+}
+
+TEST_F(DemScenario, FittedTerrainRecoversThePeaksAndCarriesItsResidual) {
+  const LoadedScenario loaded = load_scenario(
+      scenario_with_terrain("{dem: {path: utm.tif, model: fitted, fit_peaks: 7}}"), "s.yaml", dir_);
+  EXPECT_GT(loaded.terrain->model_error_m(), 0.0);
+  EXPECT_LT(loaded.terrain->model_error_m(), 10.0);
+  EXPECT_NEAR(loaded.terrain->height(900, 1250), 300.0, 10.0);
+}
+
+TEST_F(DemScenario, MissingAndGeographicDemsAreNamedErrors) {
+  try {
+    load_scenario(scenario_with_terrain("{dem: {path: nowhere.tif}}"), "s.yaml", dir_);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "terrain.dem.path");
+    EXPECT_THAT(e.what(), HasSubstr("nowhere.tif"));
+  }
+  try {
+    load_scenario(scenario_with_terrain("{dem: {path: degrees.tif}}"), "s.yaml", dir_);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "terrain.dem.path");
+    EXPECT_THAT(e.what(), HasSubstr("geodetic origin"));
+  }
 }
 
 }  // namespace

@@ -1,0 +1,357 @@
+#include "io/dem_file.hpp"
+
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <cpl_string.h>
+#include <fmt/format.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+
+namespace ridgeline::io {
+
+namespace {
+
+void register_gdal() {
+  static std::once_flag once;
+  std::call_once(once, [] { GDALAllRegister(); });
+}
+
+// GDAL reports errors through a global handler that prints to stderr; while one of our calls
+// runs, errors are kept quiet and read back with CPLGetLastErrorMsg for our own message.
+class QuietGdalErrors {
+ public:
+  QuietGdalErrors() {
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErrorReset();
+  }
+  ~QuietGdalErrors() { CPLPopErrorHandler(); }
+  QuietGdalErrors(const QuietGdalErrors&) = delete;
+  QuietGdalErrors& operator=(const QuietGdalErrors&) = delete;
+};
+
+std::string last_gdal_error() {
+  const char* msg = CPLGetLastErrorMsg();
+  return (msg != nullptr && *msg != '\0') ? std::string(msg) : std::string("no detail from GDAL");
+}
+
+struct DatasetCloser {
+  void operator()(GDALDataset* ds) const {
+    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
+  }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
+
+// Sets a GDAL config option for this thread for the lifetime of the object.
+class ScopedConfigOption {
+ public:
+  ScopedConfigOption(const char* key, const char* value) : key_(key) {
+    const char* old = CPLGetThreadLocalConfigOption(key, nullptr);
+    if (old != nullptr) old_ = old;
+    had_old_ = old != nullptr;
+    CPLSetThreadLocalConfigOption(key, value);
+  }
+  ~ScopedConfigOption() { CPLSetThreadLocalConfigOption(key_, had_old_ ? old_.c_str() : nullptr); }
+  ScopedConfigOption(const ScopedConfigOption&) = delete;
+  ScopedConfigOption& operator=(const ScopedConfigOption&) = delete;
+
+ private:
+  const char* key_;
+  std::string old_;
+  bool had_old_ = false;
+};
+
+// Metres per unit of a band's height unit string; < 0 for an unknown unit.
+double height_unit_m(std::string unit) {
+  std::transform(unit.begin(), unit.end(), unit.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (unit.empty() || unit == "m" || unit == "metre" || unit == "meter" || unit == "metres" ||
+      unit == "meters") {
+    return 1.0;
+  }
+  if (unit == "ft" || unit == "foot" || unit == "feet" || unit == "international foot")
+    return 0.3048;
+  if (unit == "us-ft" || unit == "us survey foot" || unit == "ftus") return 1200.0 / 3937.0;
+  return -1.0;
+}
+
+// Fills void cells (marked in `is_void`) from the rim inwards: each pass sets every void with
+// at least one valid 8-neighbour to the mean of those neighbours, using only values valid at
+// the start of the pass so the result does not depend on scan order.
+int fill_voids(world::RasterGrid& grid, std::vector<char>& is_void) {
+  int filled = 0;
+  std::vector<std::size_t> pending;
+  std::vector<double> values;
+  for (;;) {
+    pending.clear();
+    values.clear();
+    for (int r = 0; r < grid.rows; ++r) {
+      for (int c = 0; c < grid.cols; ++c) {
+        const std::size_t k = static_cast<std::size_t>(r) * grid.cols + c;
+        if (!is_void[k]) continue;
+        double sum = 0.0;
+        int count = 0;
+        for (int i = std::max(0, r - 1); i <= std::min(grid.rows - 1, r + 1); ++i) {
+          for (int j = std::max(0, c - 1); j <= std::min(grid.cols - 1, c + 1); ++j) {
+            const std::size_t n = static_cast<std::size_t>(i) * grid.cols + j;
+            if (!is_void[n]) {
+              sum += grid.heights_m[n];
+              ++count;
+            }
+          }
+        }
+        if (count > 0) {
+          pending.push_back(k);
+          values.push_back(sum / count);
+        }
+      }
+    }
+    if (pending.empty()) return filled;
+    for (std::size_t i = 0; i < pending.size(); ++i) {
+      grid.heights_m[pending[i]] = values[i];
+      is_void[pending[i]] = 0;
+    }
+    filled += static_cast<int>(pending.size());
+  }
+}
+
+void check_writable_grid(const world::RasterGrid& grid, const std::filesystem::path& path) {
+  validate_raster_grid(grid, path.string());
+}
+
+// GDAL geotransform of a grid: top-left CORNER and north-up pixel sizes.
+std::array<double, 6> geotransform_of(const world::RasterGrid& grid) {
+  return {grid.origin_x_m - 0.5 * grid.cell_x_m,
+          grid.cell_x_m,
+          0.0,
+          grid.origin_y_m + (grid.rows - 0.5) * grid.cell_y_m,
+          0.0,
+          -grid.cell_y_m};
+}
+
+// Heights in GDAL's order: row 0 north.
+std::vector<double> north_up_rows(const world::RasterGrid& grid) {
+  std::vector<double> out(grid.heights_m.size());
+  for (int r = 0; r < grid.rows; ++r) {
+    std::copy_n(grid.heights_m.begin() + static_cast<std::ptrdiff_t>(r) * grid.cols, grid.cols,
+                out.begin() + static_cast<std::ptrdiff_t>(grid.rows - 1 - r) * grid.cols);
+  }
+  return out;
+}
+
+void write_band(GDALDataset& ds, const world::RasterGrid& grid, const std::filesystem::path& path) {
+  std::array<double, 6> gt = geotransform_of(grid);
+  std::vector<double> rows = north_up_rows(grid);
+  if (ds.SetGeoTransform(gt.data()) != CE_None ||
+      ds.GetRasterBand(1)->RasterIO(GF_Write, 0, 0, grid.cols, grid.rows, rows.data(), grid.cols,
+                                    grid.rows, GDT_Float64, 0, 0, nullptr) != CE_None) {
+    throw InputError(path.string(), "cannot write the DEM: " + last_gdal_error());
+  }
+}
+
+}  // namespace
+
+DemRaster read_dem(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw InputError(name, "DEM file not found");
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(name, "is a directory, not a DEM file");
+  register_gdal();
+  QuietGdalErrors quiet;
+  // ESRI ASCII grids with decimals are Float32 by default; keep their full precision.
+  ScopedConfigOption ascii_precision("AAIGRID_DATATYPE", "Float64");
+  DatasetPtr ds(GDALDataset::Open(name.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  if (!ds) throw InputError(name, "GDAL cannot read it as a raster: " + last_gdal_error());
+  if (ds->GetRasterCount() < 1) throw InputError(name, "has no raster band");
+
+  DemRaster dem;
+  dem.path = name;
+  if (GDALDriver* driver = ds->GetDriver()) dem.driver = driver->GetDescription();
+
+  std::array<double, 6> gt{};
+  if (ds->GetGeoTransform(gt.data()) != CE_None) {
+    throw InputError(name, "has no georeferencing (geotransform); cannot place it");
+  }
+  if (gt[2] != 0.0 || gt[4] != 0.0) {
+    throw InputError(name, fmt::format("rotated or sheared geotransform (terms {}, {}) is not "
+                                       "supported; only north-up DEMs are (warp it with gdalwarp)",
+                                       gt[2], gt[4]));
+  }
+  if (!(gt[1] > 0.0) || !(gt[5] < 0.0)) {
+    throw InputError(name, fmt::format("pixel size ({}, {}) is not north-up (needs x > 0, y < 0)",
+                                       gt[1], gt[5]));
+  }
+
+  world::RasterGrid& grid = dem.grid;
+  grid.cols = ds->GetRasterXSize();
+  grid.rows = ds->GetRasterYSize();
+  grid.cell_x_m = gt[1];
+  grid.cell_y_m = -gt[5];
+  grid.origin_x_m = gt[0] + 0.5 * gt[1];
+  grid.origin_y_m = gt[3] + (grid.rows - 0.5) * gt[5];
+
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  const double unit_m = height_unit_m(band->GetUnitType());
+  if (unit_m < 0.0) {
+    throw InputError(name,
+                     fmt::format("height unit '{}' is not metres or feet", band->GetUnitType()));
+  }
+  int has_scale = 0, has_offset = 0;
+  const double scale = band->GetScale(&has_scale);
+  const double offset = band->GetOffset(&has_offset);
+  int has_nodata = 0;
+  const double nodata = band->GetNoDataValue(&has_nodata);
+  dem.has_nodata = has_nodata != 0;
+  dem.nodata_value = nodata;
+
+  const std::size_t count =
+      static_cast<std::size_t>(grid.rows) * static_cast<std::size_t>(grid.cols);
+  std::vector<double> raw(count);
+  if (band->RasterIO(GF_Read, 0, 0, grid.cols, grid.rows, raw.data(), grid.cols, grid.rows,
+                     GDT_Float64, 0, 0, nullptr) != CE_None) {
+    throw InputError(name, "cannot read the height band: " + last_gdal_error());
+  }
+
+  grid.heights_m.resize(count);
+  std::vector<char> is_void(count, 0);
+  std::size_t voids = 0;
+  for (int r = 0; r < grid.rows; ++r) {
+    // GDAL's row 0 is the north edge; ours is the south edge.
+    const std::size_t src = static_cast<std::size_t>(grid.rows - 1 - r) * grid.cols;
+    const std::size_t dst = static_cast<std::size_t>(r) * grid.cols;
+    for (int c = 0; c < grid.cols; ++c) {
+      const double v = raw[src + c];
+      const bool is_nodata =
+          dem.has_nodata && (v == nodata || (std::isnan(nodata) && std::isnan(v)));
+      if (is_nodata || !std::isfinite(v)) {
+        is_void[dst + c] = 1;
+        ++voids;
+        grid.heights_m[dst + c] = 0.0;
+      } else {
+        grid.heights_m[dst + c] =
+            (v * (has_scale ? scale : 1.0) + (has_offset ? offset : 0.0)) * unit_m;
+      }
+    }
+  }
+  if (2 * voids > count) {
+    throw InputError(name, fmt::format("{} of {} cells are void (nodata); more than half is not "
+                                       "a usable DEM",
+                                       voids, count));
+  }
+  if (voids > 0) dem.voids_filled = fill_voids(grid, is_void);
+
+  const OGRSpatialReference* srs = ds->GetSpatialRef();
+  if (srs != nullptr && !srs->IsEmpty()) {
+    dem.has_crs = true;
+    char* wkt = nullptr;
+    if (srs->exportToWkt(&wkt) == OGRERR_NONE && wkt != nullptr) dem.crs_wkt = wkt;
+    CPLFree(wkt);
+    dem.is_geographic = srs->IsGeographic();
+    if (!dem.is_geographic) dem.linear_unit_m = srs->GetLinearUnits();
+  }
+  validate_raster_grid(grid, name);
+  return dem;
+}
+
+world::RasterGrid to_local_frame(const DemRaster& dem) {
+  if (dem.is_geographic) {
+    throw InputError(dem.path,
+                     "DEM CRS is geographic (degrees); placing it in the local metre frame needs "
+                     "a geodetic origin, which is not supported yet. Reproject it to a projected "
+                     "CRS in metres first (e.g. gdalwarp -t_srs EPSG:326NN for UTM zone NN)");
+  }
+  world::RasterGrid grid = dem.grid;
+  if (!dem.has_crs) {
+    // An unlabeled raster whose spacing is a tiny fraction of a unit and whose extent fits
+    // inside lon/lat ranges is almost surely in degrees (SRTM3 is 1/1200°): refuse it.
+    const double west = grid.origin_x_m - 0.5 * grid.cell_x_m;
+    const double south = grid.origin_y_m - 0.5 * grid.cell_y_m;
+    const double east = west + grid.cols * grid.cell_x_m;
+    const double north = south + grid.rows * grid.cell_y_m;
+    if (grid.cell_x_m < 0.002 && grid.cell_y_m < 0.002 && west >= -180.0 && east <= 180.0 &&
+        south >= -90.0 && north <= 90.0) {
+      throw InputError(dem.path,
+                       fmt::format("DEM has no CRS and a cell size of {} x {} units inside lon/lat "
+                                   "ranges: it looks like degrees, which need a geodetic origin; "
+                                   "give the file a projected CRS in metres",
+                                   grid.cell_x_m, grid.cell_y_m));
+    }
+  }
+  if (!(dem.linear_unit_m > 0.0) || !std::isfinite(dem.linear_unit_m)) {
+    throw InputError(dem.path,
+                     fmt::format("CRS linear unit {} m is not usable", dem.linear_unit_m));
+  }
+  grid.cell_x_m *= dem.linear_unit_m;
+  grid.cell_y_m *= dem.linear_unit_m;
+  // Local (0, 0) is the south-west CORNER, so the south-west cell's centre is half a cell in.
+  grid.origin_x_m = 0.5 * grid.cell_x_m;
+  grid.origin_y_m = 0.5 * grid.cell_y_m;
+  return grid;
+}
+
+world::RasterGrid load_dem_local(const std::filesystem::path& path) {
+  return to_local_frame(read_dem(path));
+}
+
+void write_dem_geotiff(const std::filesystem::path& path, const world::RasterGrid& grid, int epsg) {
+  check_writable_grid(grid, path);
+  register_gdal();
+  QuietGdalErrors quiet;
+  OGRSpatialReference srs;
+  if (srs.importFromEPSG(epsg) != OGRERR_NONE) {
+    throw InputError("epsg",
+                     fmt::format("EPSG:{} is not a known CRS: {}", epsg, last_gdal_error()));
+  }
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  if (driver == nullptr) throw InputError(path.string(), "GDAL has no GTiff driver");
+  const std::string name = path.string();
+  {
+    DatasetPtr ds(driver->Create(name.c_str(), grid.cols, grid.rows, 1, GDT_Float64, nullptr));
+    if (!ds) throw InputError(name, "cannot create the GeoTIFF: " + last_gdal_error());
+    if (ds->SetSpatialRef(&srs) != CE_None) {
+      throw InputError(name, "cannot set its CRS: " + last_gdal_error());
+    }
+    write_band(*ds, grid, path);
+  }
+  // GDAL flushes on close; a failure there is only visible in the error state.
+  if (CPLGetLastErrorType() >= CE_Failure) {
+    throw InputError(name, "writing the GeoTIFF failed: " + last_gdal_error());
+  }
+}
+
+void write_dem_ascii_grid(const std::filesystem::path& path, const world::RasterGrid& grid) {
+  check_writable_grid(grid, path);
+  register_gdal();
+  QuietGdalErrors quiet;
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  GDALDriver* aai = GetGDALDriverManager()->GetDriverByName("AAIGrid");
+  if (mem == nullptr || aai == nullptr) {
+    throw InputError(path.string(), "GDAL lacks the MEM or AAIGrid driver");
+  }
+  const std::string name = path.string();
+  DatasetPtr staging(mem->Create("", grid.cols, grid.rows, 1, GDT_Float64, nullptr));
+  if (!staging) throw InputError(name, "cannot stage the grid: " + last_gdal_error());
+  write_band(*staging, grid, path);
+  CPLStringList options;
+  options.SetNameValue("SIGNIFICANT_DIGITS", "17");
+  DatasetPtr out(
+      aai->CreateCopy(name.c_str(), staging.get(), FALSE, options.List(), nullptr, nullptr));
+  if (!out) throw InputError(name, "cannot write the ASCII grid: " + last_gdal_error());
+  out.reset();
+  if (CPLGetLastErrorType() >= CE_Failure) {
+    throw InputError(name, "writing the ASCII grid failed: " + last_gdal_error());
+  }
+}
+
+}  // namespace ridgeline::io

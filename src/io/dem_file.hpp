@@ -1,0 +1,66 @@
+// Reading and writing DEM rasters with GDAL (DESIGN §4, §8): GeoTIFF, ESRI ASCII grid (.asc),
+// SRTM .hgt, and anything else GDAL opens as a single-band north-up raster.
+//
+// Two levels:
+// - read_dem: the raw raster in the DEM's OWN coordinates (CRS units, degrees if geographic)
+//   plus its CRS, for a caller that warps it (a later geodetic-origin loader).
+// - load_dem_local: the raster in the local ENU frame, for now the rule "local = DEM projected
+//   coordinates minus the raster's south-west CORNER", i.e. local (0, 0) is the DEM's
+//   south-west corner and the south-west cell's centre sits at (Δx/2, Δy/2). A DEM whose CRS
+//   is geographic is rejected there (it needs a geodetic origin): degrees are never read as
+//   metres.
+//
+// Grid conventions are those of world/raster_grid.hpp (cell-centre samples, row 0 south).
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "world/raster_grid.hpp"
+
+namespace ridgeline::io {
+
+struct DemRaster {
+  /// Heights in metres. Spatial fields in the CRS's units: origin_x_m/origin_y_m is the
+  /// south-west cell centre and cell_x_m/cell_y_m the spacing — in DEGREES when is_geographic
+  /// (despite the `_m` names), in the CRS's linear unit otherwise (see linear_unit_m).
+  world::RasterGrid grid;
+  std::string path;
+  std::string driver;   ///< GDAL driver short name, e.g. "GTiff", "AAIGrid", "SRTMHGT"
+  std::string crs_wkt;  ///< empty when the file has no CRS
+  bool has_crs = false;
+  bool is_geographic = false;  ///< CRS in angular units (lon/lat degrees)
+  double linear_unit_m = 1.0;  ///< metres per projected CRS unit (1 for metres)
+  bool has_nodata = false;
+  double nodata_value = 0.0;
+  int voids_filled = 0;  ///< nodata cells filled from their valid neighbours
+};
+
+/// Reads band 1 of `path`. Voids (the band's nodata value, or non-finite values) are filled
+/// by repeated passes that set every void with at least one valid 8-neighbour to the mean of
+/// those neighbours (isolated voids take their neighbours' mean; larger holes fill from their
+/// rim inwards); the count is in voids_filled.
+/// Throws InputError naming the file when it is missing or unreadable, has no geotransform,
+/// is rotated or not north-up, has more than half its cells void, or heights in a unit other
+/// than metres or feet (feet are converted).
+DemRaster read_dem(const std::filesystem::path& path);
+
+/// The DEM in the local frame (see above). Throws InputError naming the file when its CRS is
+/// geographic, or when it has no CRS but its coordinates look like degrees (cell < 0.002
+/// units and the extent inside ±180 × ±90), so an unlabeled SRTM tile is not read as metres.
+/// A file with no CRS is otherwise taken as metres.
+world::RasterGrid load_dem_local(const std::filesystem::path& path);
+/// The same conversion for an already read raster.
+world::RasterGrid to_local_frame(const DemRaster& dem);
+
+/// Writes `grid` as a Float64 GeoTIFF in EPSG:`epsg`; the grid's coordinates are taken to be
+/// in that CRS (south-west cell centre = origin, see raster_grid.hpp). Throws InputError on an
+/// unknown EPSG code, a bad grid or a failed write.
+void write_dem_geotiff(const std::filesystem::path& path, const world::RasterGrid& grid, int epsg);
+
+/// Writes `grid` as an ESRI ASCII grid (no CRS, no .prj) with 17 significant digits, so
+/// heights round-trip exactly. ESRI grids have square cells; unequal cell sizes are written
+/// with GDAL's DX/DY extension, which GDAL reads back.
+void write_dem_ascii_grid(const std::filesystem::path& path, const world::RasterGrid& grid);
+
+}  // namespace ridgeline::io

@@ -1,0 +1,108 @@
+// End-to-end checks of the `ridgeline` program as a user runs it.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct CliRun {
+  int exit_code;
+  std::string out;
+  std::string err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("ridgeline_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CliRun run(const std::string& args) {
+    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+    const std::string cmd = std::string(RIDGELINE_CLI_PATH) + " " + args + " >" + out.string() +
+                            " 2>" + err.string() + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  }
+  void write(const std::string& name, const std::string& text) {
+    std::ofstream(dir_ / name) << text;
+  }
+  std::string default_yaml() { return run("scenario default").out; }
+
+  fs::path dir_;
+};
+
+TEST_F(Cli, DefaultScenarioRoundTripsThroughValidate) {
+  const CliRun printed = run("scenario default");
+  ASSERT_EQ(printed.exit_code, 0) << printed.err;
+  write("s.yaml", printed.out);
+  const CliRun valid = run("validate " + (dir_ / "s.yaml").string());
+  EXPECT_EQ(valid.exit_code, 0) << valid.err;
+  EXPECT_THAT(valid.out, HasSubstr("3 UAVs"));
+}
+
+TEST_F(Cli, ValidateListsEveryProblemByFieldAndFails) {
+  std::string yaml = default_yaml();
+  // Bury the first target in the tallest peak and give a threat a negative radius.
+  const std::string target = "position_m: [1700, 1300, 90]";
+  ASSERT_NE(yaml.find(target), std::string::npos);
+  yaml.replace(yaml.find(target), target.size(), "position_m: [900, 1250, 250]");
+  const std::string radius = "radius_m: 40";
+  ASSERT_NE(yaml.find(radius), std::string::npos);
+  yaml.replace(yaml.find(radius), radius.size(), "radius_m: -40");
+  write("bad.yaml", yaml);
+  const CliRun r = run("validate " + (dir_ / "bad.yaml").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("targets[0].position_m: 70.0 m below the terrain clearance"));
+  EXPECT_THAT(r.err, HasSubstr("threats[0].radius_m: must be > 0"));
+  EXPECT_THAT(r.err, HasSubstr("2 problems"));
+}
+
+TEST_F(Cli, MalformedAndMissingFilesFailWithOneMessage) {
+  write("broken.yaml", "area: [1, 2\n");
+  CliRun r = run("validate " + (dir_ / "broken.yaml").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("malformed YAML"));
+  r = run("validate " + (dir_ / "none.yaml").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("none.yaml"));
+  r = run("validate");
+  EXPECT_NE(r.exit_code, 0);
+}
+
+TEST_F(Cli, RunWritesTheSummaryAndNothingOnBadInput) {
+  CliRun r = run("run --out " + (dir_ / "ok").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_ / "ok" / "summary.json"));
+  EXPECT_THAT(slurp(dir_ / "ok" / "summary.json"), HasSubstr("\"scenario\": \"default\""));
+
+  std::string yaml = default_yaml();
+  yaml.replace(yaml.find("tau_v_s: 0.5"), 12, "tau_v_s: .nan");
+  write("nan.yaml", yaml);
+  r = run("run --scenario " + (dir_ / "nan.yaml").string() + " --out " + (dir_ / "bad").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("vehicle.tau_v_s: must be a finite number"));
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+}
+
+}  // namespace

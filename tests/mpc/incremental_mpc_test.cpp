@@ -1,0 +1,328 @@
+// Tests of the plant-agnostic incremental MPC (src/mpc/incremental_mpc.*) on plants other
+// than the UAV: random time-varying systems for the prediction matrices (eq. 8–9), and a
+// linear longitudinal aircraft model for closed-loop tracking, limits and soft constraints.
+#include "mpc/incremental_mpc.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include <unsupported/Eigen/MatrixFunctions>
+
+#include "core/error.hpp"
+
+namespace ridgeline::mpc {
+namespace {
+
+MatX random_matrix(std::mt19937& rng, int rows, int cols, double scale) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  MatX m(rows, cols);
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) m(i, j) = scale * u(rng);
+  }
+  return m;
+}
+
+IncrementalMpcOptions basic_options(int ny, int nu, int np, int nc) {
+  IncrementalMpcOptions o;
+  o.prediction_horizon = np;
+  o.control_horizon = nc;
+  o.output_weight = VecX::Ones(ny);
+  o.move_weight = VecX::Ones(nu);
+  return o;
+}
+
+// Y = Fξ + ΦΔU + Y_w must equal stepping the augmented system of eq. 7 with explicitly formed
+// Ã_j = [A_j 0; C A_j I], B̃_j = [B_j; C B_j] — an independent implementation of the same
+// recursion. The products involve ≤ 40 factors of norm ≈ 1.1 on O(1) data, so rounding stays
+// near 1e-13 relative; 1e-9 absolute is the brief's bound with a wide margin.
+TEST(IncrementalMpcPrediction, MatricesMatchStepByStepAugmentedSimulationTimeVarying) {
+  std::mt19937 rng(7);
+  const int ns = 5, nu = 2, ny = 3, nd = 2, np = 25, nc = 6;
+  IncrementalMpcDims dims{ns, nu, ny, nd, 0, 0};
+  IncrementalMpc mpc(dims, basic_options(ny, nu, np, nc));
+  IncrementalMpcData& d = mpc.data();
+  d.C = random_matrix(rng, ny, ns, 1.0);
+  for (int j = 0; j < np; ++j) {
+    d.A[j] = MatX::Identity(ns, ns) + random_matrix(rng, ns, ns, 0.08);
+    d.B[j] = random_matrix(rng, ns, nu, 0.5);
+    d.E[j] = random_matrix(rng, ns, nd, 0.3);
+  }
+  d.delta_state = random_matrix(rng, ns, 1, 1.0);
+  d.output = random_matrix(rng, ny, 1, 5.0);
+  d.disturbance_delta = random_matrix(rng, nd, np, 0.2);
+  d.state_offset = random_matrix(rng, ns, np, 0.05);
+  mpc.build_prediction();
+  const VecX dU = random_matrix(rng, nc * nu, 1, 1.0);
+
+  VecX xi(ns + ny);
+  xi << d.delta_state, d.output;
+  VecX xi0 = xi;
+  VecX Y_sim(np * ny);
+  for (int j = 0; j < np; ++j) {
+    MatX At = MatX::Zero(ns + ny, ns + ny);
+    At.topLeftCorner(ns, ns) = d.A[j];
+    At.bottomLeftCorner(ny, ns) = d.C * d.A[j];
+    At.bottomRightCorner(ny, ny).setIdentity();
+    MatX Bt(ns + ny, nu);
+    Bt << d.B[j], d.C * d.B[j];
+    const VecX w = d.E[j] * d.disturbance_delta.col(j) + d.state_offset.col(j);
+    VecX wt(ns + ny);
+    wt << w, d.C * w;
+    VecX du = VecX::Zero(nu);
+    if (j < nc) du = dU.segment(j * nu, nu);
+    xi = At * xi + Bt * du + wt;
+    Y_sim.segment(j * ny, ny) = xi.tail(ny);
+  }
+  const VecX Y_pred = mpc.F() * xi0 + mpc.Phi() * dU + mpc.known_response();
+  EXPECT_LT((Y_pred - Y_sim).cwiseAbs().maxCoeff(), 1e-9);
+  // Φ is block lower-triangular: a move cannot act on earlier outputs.
+  EXPECT_EQ(mpc.Phi().topRightCorner(ny, (nc - 1) * nu).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// For an LTI plant the incremental prediction must reproduce the ORIGINAL (absolute) plant
+// s⁺ = A s + B u + E d, y = C s, simulated from s_{k−1}, s_k with u held after Nc and a
+// time-varying measured disturbance: eq. 7 is exact then. Same rounding argument: 1e-9.
+TEST(IncrementalMpcPrediction, LtiPredictionEqualsAbsolutePlantSimulation) {
+  std::mt19937 rng(11);
+  const int ns = 4, nu = 2, ny = 2, nd = 1, np = 30, nc = 5;
+  IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, nd, 0, 0}, basic_options(ny, nu, np, nc));
+  IncrementalMpcData& d = mpc.data();
+  const MatX A = MatX::Identity(ns, ns) + random_matrix(rng, ns, ns, 0.05);
+  const MatX B = random_matrix(rng, ns, nu, 0.4);
+  const MatX C = random_matrix(rng, ny, ns, 1.0);
+  const MatX E = random_matrix(rng, ns, nd, 0.4);
+  d.set_time_invariant(A, B, C, E);
+
+  const VecX s_prev = random_matrix(rng, ns, 1, 2.0);
+  const VecX u_prev = random_matrix(rng, nu, 1, 1.0);
+  VecX dist(np + 1);  // d_{k−1}, d_k, …, d_{k+Np−1}
+  for (int j = 0; j <= np; ++j) dist[j] = std::sin(0.3 * j);
+  VecX s = A * s_prev + B * u_prev + E * dist.segment(0, 1);  // s_k
+  // The step s_{k−1} → s_k used u_{k−1} and d_{k−1}.
+  d.delta_state = s - s_prev;
+  d.output = C * s;
+  d.previous_input = u_prev;
+  for (int j = 0; j < np; ++j) d.disturbance_delta(0, j) = dist[j + 1] - dist[j];
+  mpc.build_prediction();
+
+  const VecX dU = random_matrix(rng, nc * nu, 1, 1.0);
+  VecX u = u_prev;
+  VecX Y_sim(np * ny);
+  for (int j = 0; j < np; ++j) {
+    if (j < nc) u += dU.segment(j * nu, nu);
+    s = A * s + B * u + E * dist.segment(j + 1, 1);
+    Y_sim.segment(j * ny, ny) = C * s;
+  }
+  VecX xi(ns + ny);
+  xi << d.delta_state, d.output;
+  const VecX Y_pred = mpc.F() * xi + mpc.Phi() * dU + mpc.known_response();
+  EXPECT_LT((Y_pred - Y_sim).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(IncrementalMpcOptionsCheck, RejectsInconsistentOptionsNamingTheField) {
+  IncrementalMpcOptions o = basic_options(2, 1, 10, 12);
+  try {
+    IncrementalMpc mpc(IncrementalMpcDims{3, 1, 2, 0, 0, 0}, o);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "options.control_horizon");
+  }
+  o = basic_options(2, 1, 10, 5);
+  o.move_weight = VecX::Zero(1);
+  EXPECT_THROW(IncrementalMpc(IncrementalMpcDims{3, 1, 2, 0, 0, 0}, o), InputError);
+  o = basic_options(2, 1, 10, 5);
+  EXPECT_THROW(IncrementalMpc(IncrementalMpcDims{3, 1, 2, 0, 4, 0}, o), InputError);
+}
+
+TEST(IncrementalMpcData, WrongSizedDataIsReportedNotSolved) {
+  IncrementalMpc mpc(IncrementalMpcDims{3, 1, 2, 0, 0, 0}, basic_options(2, 1, 10, 5));
+  mpc.data().A[4] = MatX::Identity(2, 2);
+  const IncrementalMpcResult& r = mpc.solve();
+  EXPECT_EQ(r.qp_status, qp::QpStatus::kInvalidInput);
+  EXPECT_EQ(r.invalid_field, "A[j]");
+}
+
+// ---------------------------------------------------------------------------------------
+// Linear longitudinal aircraft model (small perturbations about a 60 m/s cruise, stability
+// axes), textbook structure (e.g. Nelson, "Flight Stability and Automatic Control", ch. 4–5)
+// with illustrative light-transport coefficients:
+//   state x = [V (m/s), α (rad), q (rad/s), θ (rad), P (m/s², thrust per unit mass), γ (rad)]
+//   input u = [δ_t (throttle, normalized), δ_e (elevator, rad)]
+//   V̇ = X_u V + X_α α − g θ + P          (drag, lift-tilt, gravity along the path, thrust)
+//   α̇ = Z_u V + Z_α α + q + Z_δe δ_e      (Z's already divided by V0)
+//   q̇ = M_α α + M_q q + M_δe δ_e          (short period ω ≈ 3.9 rad/s, ζ ≈ 0.5)
+//   θ̇ = q
+//   Ṗ = (k_t δ_t − P)/τ_P                 (first-order engine lag)
+//   γ̇ = θ̇ − α̇                            (γ = θ − α kept as a state: the tracked output)
+// Discretized exactly for a zero-order-hold input with the matrix exponential of
+// [A B; 0 0]·Δt (Van Loan).
+struct AircraftCoefficients {
+  double Xu = -0.045, Xa = 1.9, Zu = -0.003, Za = -2.0, Zde = -0.16;
+  double Ma = -12.0, Mq = -3.0, Mde = -11.0, kt = 5.0, tauP = 0.8;
+};
+
+void aircraft_continuous(const AircraftCoefficients& c, MatX& A, MatX& B) {
+  A = MatX::Zero(6, 6);
+  B = MatX::Zero(6, 2);
+  A(0, 0) = c.Xu; A(0, 1) = c.Xa; A(0, 3) = -kGravity_m_s2; A(0, 4) = 1.0;
+  A(1, 0) = c.Zu; A(1, 1) = c.Za; A(1, 2) = 1.0; B(1, 1) = c.Zde;
+  A(2, 1) = c.Ma; A(2, 2) = c.Mq; B(2, 1) = c.Mde;
+  A(3, 2) = 1.0;
+  A(4, 4) = -1.0 / c.tauP; B(4, 0) = c.kt / c.tauP;
+  A.row(5) = A.row(3) - A.row(1);
+  B.row(5) = B.row(3) - B.row(1);
+}
+
+void zoh(const MatX& Ac, const MatX& Bc, double dt, MatX& Ad, MatX& Bd) {
+  const int n = static_cast<int>(Ac.rows()), m = static_cast<int>(Bc.cols());
+  MatX M = MatX::Zero(n + m, n + m);
+  M.topLeftCorner(n, n) = Ac * dt;
+  M.topRightCorner(n, m) = Bc * dt;
+  const MatX Md = M.exp();
+  Ad = Md.topLeftCorner(n, n);
+  Bd = Md.topRightCorner(n, m);
+}
+
+constexpr double kAircraftDt = 0.1;
+constexpr double kThrottleMax = 0.5, kElevatorMax = 0.35;           // |δ_t|, |δ_e| (rad)
+constexpr double kThrottleRate = 0.5, kElevatorRate = 1.0;          // per second
+
+struct AircraftLoop {
+  IncrementalMpc mpc;
+  MatX Ad, Bd, C;
+
+  explicit AircraftLoop(int soft_capacity)
+      : mpc(IncrementalMpcDims{6, 2, 2, 0, soft_capacity, soft_capacity > 0 ? 1 : 0},
+            make_options()) {
+    MatX Ac, Bc;
+    aircraft_continuous(AircraftCoefficients{}, Ac, Bc);
+    zoh(Ac, Bc, kAircraftDt, Ad, Bd);
+    C = MatX::Zero(2, 6);
+    C(0, 0) = 1.0;
+    C(1, 5) = 1.0;
+    IncrementalMpcData& d = mpc.data();
+    d.set_time_invariant(Ad, Bd, C, MatX());
+    d.input_min.row(0).setConstant(-kThrottleMax);
+    d.input_max.row(0).setConstant(kThrottleMax);
+    d.input_min.row(1).setConstant(-kElevatorMax);
+    d.input_max.row(1).setConstant(kElevatorMax);
+    d.move_min.row(0).setConstant(-kThrottleRate * kAircraftDt);
+    d.move_max.row(0).setConstant(kThrottleRate * kAircraftDt);
+    d.move_min.row(1).setConstant(-kElevatorRate * kAircraftDt);
+    d.move_max.row(1).setConstant(kElevatorRate * kAircraftDt);
+  }
+
+  static IncrementalMpcOptions make_options() {
+    IncrementalMpcOptions o;
+    o.prediction_horizon = 50;
+    o.control_horizon = 8;
+    // 1 m/s of speed error weighs like 0.01 rad (0.6°) of flight-path error.
+    o.output_weight = (VecX(2) << 1.0, 1e4).finished();
+    o.move_weight = (VecX(2) << 10.0, 10.0).finished();
+    // Exact penalty: ρ₁ must exceed the sum of the multipliers of a group's rows. A 0.02 rad
+    // flight-path error costs 2·1e4·0.02 = 400 per step, over 50 steps 2·10⁴; 10⁶ is safe.
+    o.slack_linear_weight = 1e6;
+    return o;
+  }
+};
+
+// The truth differs from the controller's model: coefficients off by 10–30 % and an
+// unmodelled constant drag (−0.4 m/s²). The incremental form must still remove the steady-state
+// error of both outputs, and the input and rate limits must hold at every step.
+TEST(IncrementalMpcAircraft, TracksStepsInSpeedAndFlightPathWithZeroSteadyStateError) {
+  AircraftLoop loop(0);
+  AircraftCoefficients truth;
+  truth.Xu *= 1.3;
+  truth.Ma *= 1.15;
+  truth.Mde *= 0.85;
+  truth.kt *= 0.8;
+  truth.tauP *= 1.25;
+  MatX Ac, Bc, At, Bt;
+  aircraft_continuous(truth, Ac, Bc);
+  zoh(Ac, Bc, kAircraftDt, At, Bt);
+  VecX drag = VecX::Zero(6);
+  drag[0] = -0.4 * kAircraftDt;  // first-order effect of a constant deceleration over one step
+
+  VecX x = VecX::Zero(6), x_prev = VecX::Zero(6), u = VecX::Zero(2);
+  IncrementalMpcData& d = loop.mpc.data();
+  double max_throttle_move = 0.0;
+  const int steps = 800;  // 80 s
+  for (int k = 0; k < steps; ++k) {
+    const double t = k * kAircraftDt;
+    const Eigen::Vector2d r = t < 40.0 ? Eigen::Vector2d(5.0, 0.05) : Eigen::Vector2d(-3.0, -0.03);
+    for (int j = 0; j < d.reference.cols(); ++j) d.reference.col(j) = r;
+    d.delta_state = x - x_prev;
+    d.output = loop.C * x;
+    d.state = x;
+    d.previous_input = u;
+    const IncrementalMpcResult& res = loop.mpc.solve();
+    ASSERT_TRUE(res.solved()) << "step " << k << ": " << qp::to_string(res.qp_status);
+    const VecX u_new = res.first_input;
+    // Interior-point iterates satisfy the limits to the solver tolerance (1e-9 relative);
+    // 1e-7 absolute leaves room for the scale of the data.
+    EXPECT_LE(std::abs(u_new[0]), kThrottleMax + 1e-7) << k;
+    EXPECT_LE(std::abs(u_new[1]), kElevatorMax + 1e-7) << k;
+    EXPECT_LE(std::abs(u_new[0] - u[0]), kThrottleRate * kAircraftDt + 1e-7) << k;
+    EXPECT_LE(std::abs(u_new[1] - u[1]), kElevatorRate * kAircraftDt + 1e-7) << k;
+    max_throttle_move = std::max(max_throttle_move, std::abs(u_new[0] - u[0]));
+    u = u_new;
+    x_prev = x;
+    x = At * x + Bt * u + drag;
+    if (k == 399 || k == steps - 1) {
+      // After 40 s the loop has settled (slowest closed-loop mode ≈ 5 s); the residual is set
+      // by the exponentially decaying transient, not by a bias: 1e-3 m/s and 1e-4 rad are
+      // ≥ 50× smaller than the error a proportional-only controller leaves for this drag.
+      EXPECT_NEAR(x[0], r[0], 1e-3) << "t = " << t;
+      EXPECT_NEAR(x[5], r[1], 1e-4) << "t = " << t;
+    }
+  }
+  // The throttle rate limit was active (the test exercises the limits, not just respects them).
+  EXPECT_GT(max_throttle_move, 0.99 * kThrottleRate * kAircraftDt);
+}
+
+// A soft output constraint γ ≤ 0.03 rad against a reference of 0.05 rad: the output settles on
+// the constraint, and the slack stays at zero because the constraint can be met. A second,
+// unreachable soft constraint (V ≥ 200 m/s within the horizon) leaves the QP solvable and
+// reports the violation in the slack.
+TEST(IncrementalMpcAircraft, SoftOutputConstraintsHoldAndReportViolations) {
+  AircraftLoop loop(100);
+  IncrementalMpcData& d = loop.mpc.data();
+  VecX x = VecX::Zero(6), x_prev = VecX::Zero(6), u = VecX::Zero(2);
+  const Eigen::Vector2d a_gamma(0.0, -1.0);  // −γ ≥ −0.03
+  double max_gamma = -1.0;
+  for (int k = 0; k < 300; ++k) {
+    d.reference.row(0).setConstant(0.0);
+    d.reference.row(1).setConstant(0.05);
+    d.clear_soft_rows();
+    for (int j = 0; j < d.reference.cols(); ++j) ASSERT_TRUE(d.add_soft_row(j, a_gamma, -0.03, 0));
+    d.delta_state = x - x_prev;
+    d.output = loop.C * x;
+    d.previous_input = u;
+    const IncrementalMpcResult& res = loop.mpc.solve();
+    ASSERT_TRUE(res.solved()) << k << ": " << qp::to_string(res.qp_status);
+    // The exact penalty (ρ₁ = 1e6 ≫ the multipliers the tracking cost puts on γ) keeps σ = 0
+    // when feasible; the IPM leaves σ at its tolerance level.
+    EXPECT_LT(res.max_slack, 1e-6) << k;
+    u = res.first_input;
+    x_prev = x;
+    x = loop.Ad * x + loop.Bd * u;
+    if (k > 150) max_gamma = std::max(max_gamma, x[5]);
+  }
+  // The plant is the model here, so the constraint holds up to the solver tolerance.
+  EXPECT_LT(max_gamma, 0.03 + 1e-6);
+  EXPECT_GT(max_gamma, 0.03 - 1e-3);  // and it is active: the output rides the constraint
+
+  d.clear_soft_rows();
+  ASSERT_TRUE(d.add_soft_row(49, Eigen::Vector2d(1.0, 0.0), 200.0, 0));
+  const IncrementalMpcResult& res = loop.mpc.solve();
+  ASSERT_TRUE(res.solved());
+  // The throttle can add at most ~5 m/s² for 5 s: V cannot exceed ~30 m/s, so ≥ 150 m/s of
+  // slack must be reported.
+  EXPECT_GT(res.max_slack, 150.0);
+  EXPECT_NEAR(res.predicted_outputs(0, 49) + res.slack[0], 200.0, 1e-5);
+}
+
+}  // namespace
+}  // namespace ridgeline::mpc

@@ -1,0 +1,305 @@
+// Cross-check of ridgeline::qp::QpSolver against Ipopt on random QPs whose optimum is known by
+// construction, plus random infeasible and unbounded QPs that must be classified correctly.
+//
+// Construction of a feasible instance (the KKT conditions are satisfied at z* by design):
+// pick H = Q diag(λ) Qᵀ (log-spaced spectrum up to the requested condition number, or some
+// zero eigenvalues for a PSD H), z*, the status of every bound and row (active lower/upper,
+// inactive, free, equality lg == ug, duplicated, degenerate = active with zero multiplier),
+// multipliers of the right sign on active sides, and then f = −(Hz* + w_b + Gᵀw_g + Aᵀy).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <Eigen/Dense>
+
+#include "ipopt_qp_reference.hpp"
+#include "qp/qp_solver.hpp"
+
+namespace ridgeline::qp {
+namespace {
+
+struct Generated {
+  QpProblem problem;
+  Eigen::VectorXd z_star;
+  double objective_star = 0.0;
+  bool strictly_convex = true;
+};
+
+class Generator {
+ public:
+  explicit Generator(unsigned seed) : rng_(seed) {}
+
+  double uniform(double lo, double hi) { return std::uniform_real_distribution<>(lo, hi)(rng_); }
+  int integer(int lo, int hi) { return std::uniform_int_distribution<>(lo, hi)(rng_); }
+  double normal() { return std::normal_distribution<>(0.0, 1.0)(rng_); }
+
+  Eigen::MatrixXd gaussian(int rows, int cols) {
+    Eigen::MatrixXd x(rows, cols);
+    for (int j = 0; j < cols; ++j) {
+      for (int i = 0; i < rows; ++i) x(i, j) = normal();
+    }
+    return x;
+  }
+
+  Eigen::MatrixXd orthogonal(int n) {
+    Eigen::HouseholderQR<Eigen::MatrixXd> qr(gaussian(n, n));
+    return qr.householderQ() * Eigen::MatrixXd::Identity(n, n);
+  }
+
+  // H with eigenvalues log-spaced in [1/√cond, √cond]; the last `null_dim` are zero.
+  Eigen::MatrixXd hessian(int n, double cond, int null_dim) {
+    const Eigen::MatrixXd Q = orthogonal(n);
+    Eigen::VectorXd eig(n);
+    for (int i = 0; i < n; ++i) {
+      const double t = n > 1 ? static_cast<double>(i) / (n - 1) : 0.0;
+      eig[i] = std::pow(cond, 0.5 - t);
+    }
+    for (int i = n - null_dim; i < n; ++i) eig[i] = 0.0;
+    Eigen::MatrixXd H = Q * eig.asDiagonal() * Q.transpose();
+    return 0.5 * (H + H.transpose());
+  }
+
+  Generated feasible(int n, int m, int p, double cond, bool psd) {
+    Generated g;
+    QpProblem& q = g.problem;
+    const int null_dim = psd ? integer(1, std::max(1, n / 3)) : 0;
+    g.strictly_convex = !psd;
+    q.H = hessian(n, cond, null_dim);
+    Eigen::VectorXd z = Eigen::VectorXd::NullaryExpr(n, [&] { return uniform(-2.0, 2.0); });
+    // A PSD H leaves directions that only the constraints bound; activate enough bounds.
+    Eigen::VectorXd w_b = Eigen::VectorXd::Zero(n);
+    q.lb.resize(n);
+    q.ub.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const int kind = integer(0, psd ? 4 : 6);
+      const double gap = uniform(0.1, 2.0);
+      switch (kind) {
+        case 0:  // active lower
+          q.lb[i] = z[i];
+          q.ub[i] = z[i] + gap;
+          w_b[i] = -uniform(0.1, 3.0);
+          break;
+        case 1:  // active upper, no lower side
+          q.lb[i] = -kInfinity;
+          q.ub[i] = z[i];
+          w_b[i] = uniform(0.1, 3.0);
+          break;
+        case 2:  // degenerate: active with zero multiplier
+          q.lb[i] = z[i];
+          q.ub[i] = kInfinity;
+          break;
+        case 3:  // fixed variable lb == ub, either sign of multiplier
+          q.lb[i] = q.ub[i] = z[i];
+          w_b[i] = uniform(-2.0, 2.0);
+          break;
+        case 4:  // active upper of a box
+          q.lb[i] = z[i] - gap;
+          q.ub[i] = z[i];
+          w_b[i] = uniform(0.1, 3.0);
+          break;
+        case 5:  // inactive box
+          q.lb[i] = z[i] - gap;
+          q.ub[i] = z[i] + uniform(0.1, 2.0);
+          break;
+        default:  // free
+          q.lb[i] = -kInfinity;
+          q.ub[i] = kInfinity;
+          break;
+      }
+    }
+    q.G = gaussian(m, n);
+    q.lg.resize(m);
+    q.ug.resize(m);
+    Eigen::VectorXd w_g = Eigen::VectorXd::Zero(m);
+    for (int j = 0; j < m; ++j) {
+      if (j > 0 && integer(0, 9) == 0) {  // redundant duplicate of an earlier row
+        const int k = integer(0, j - 1);
+        q.G.row(j) = q.G.row(k);
+        q.lg[j] = q.lg[k];
+        q.ug[j] = q.ug[k];
+        continue;  // zero multiplier: the original row carries it
+      }
+      const double gz = q.G.row(j).dot(z);
+      const double gap = uniform(0.1, 3.0);
+      switch (integer(0, 6)) {
+        case 0:
+          q.lg[j] = gz;
+          q.ug[j] = kInfinity;
+          w_g[j] = -uniform(0.1, 3.0);
+          break;
+        case 1:
+          q.lg[j] = gz - gap;
+          q.ug[j] = gz;
+          w_g[j] = uniform(0.1, 3.0);
+          break;
+        case 2:  // degenerate
+          q.lg[j] = gz;
+          q.ug[j] = gz + gap;
+          break;
+        case 3:  // equality row
+          q.lg[j] = q.ug[j] = gz;
+          w_g[j] = uniform(-2.0, 2.0);
+          break;
+        case 4:
+          q.lg[j] = -kInfinity;
+          q.ug[j] = gz + gap;
+          break;
+        default:
+          q.lg[j] = gz - gap;
+          q.ug[j] = gz + uniform(0.1, 3.0);
+          break;
+      }
+    }
+    q.A = gaussian(p, n);
+    q.b = q.A * z;
+    const Eigen::VectorXd y = Eigen::VectorXd::NullaryExpr(p, [&] { return uniform(-2.0, 2.0); });
+    q.f = -(q.H * z + w_b + q.G.transpose() * w_g + q.A.transpose() * y);
+    g.z_star = z;
+    g.objective_star = 0.5 * z.dot(q.H * z) + q.f.dot(z);
+    return g;
+  }
+
+  // Feasible rows plus a Farkas block: rows g_1..g_k with upper sides u_i and the row
+  // h = Σ c_i g_i (c_i > 0) with lower side above Σ c_i u_i, so no z satisfies all of them.
+  QpProblem infeasible(int n, int m) {
+    QpProblem q = feasible(n, m, 0, 1e2, false).problem;
+    const int k = integer(1, std::min(n, 4));
+    Eigen::MatrixXd rows = gaussian(k + 1, n);
+    Eigen::VectorXd lo(k + 1), hi(k + 1);
+    double support = 0.0;
+    rows.row(k).setZero();
+    for (int i = 0; i < k; ++i) {
+      const double c = uniform(0.5, 2.0);
+      lo[i] = -kInfinity;
+      hi[i] = uniform(-1.0, 1.0);
+      rows.row(k) += c * rows.row(i);
+      support += c * hi[i];
+    }
+    lo[k] = support + uniform(0.1, 1.0);
+    hi[k] = kInfinity;
+    append_rows(q, rows, lo, hi);
+    return q;
+  }
+
+  // H PSD with a null direction d, fᵀd < 0, and every constraint side open along d.
+  QpProblem unbounded(int n, int m) {
+    QpProblem q;
+    const int rank = integer(0, n - 1);
+    Eigen::MatrixXd V = gaussian(n, rank);
+    Eigen::VectorXd d = Eigen::VectorXd::NullaryExpr(n, [&] { return normal(); });
+    if (rank > 0) {
+      // d orthogonal to range(V), so H d = V Vᵀ d = 0.
+      const Eigen::MatrixXd Qv = Eigen::HouseholderQR<Eigen::MatrixXd>(V).householderQ() *
+                                 Eigen::MatrixXd::Identity(n, rank);
+      d -= Qv * (Qv.transpose() * d);
+    }
+    d /= d.norm();
+    q.H = V * V.transpose();
+    q.f = Eigen::VectorXd::NullaryExpr(n, [&] { return normal(); });
+    q.f -= (q.f.dot(d) + uniform(0.5, 2.0)) * d;  // fᵀd < 0
+    const Eigen::VectorXd z0 = Eigen::VectorXd::NullaryExpr(n, [&] { return normal(); });
+    q.lb.resize(n);
+    q.ub.resize(n);
+    for (int i = 0; i < n; ++i) {
+      q.lb[i] = d[i] >= 0.0 ? z0[i] - uniform(0.0, 1.0) : -kInfinity;
+      q.ub[i] = d[i] <= 0.0 ? z0[i] + uniform(0.0, 1.0) : kInfinity;
+    }
+    q.G = gaussian(m, n);
+    q.lg.resize(m);
+    q.ug.resize(m);
+    const Eigen::VectorXd gd = q.G * d, gz = q.G * z0;
+    for (int j = 0; j < m; ++j) {
+      q.lg[j] = gd[j] >= 0.0 ? gz[j] - uniform(0.0, 1.0) : -kInfinity;
+      q.ug[j] = gd[j] <= 0.0 ? gz[j] + uniform(0.0, 1.0) : kInfinity;
+    }
+    q.A.resize(0, n);
+    q.b.resize(0);
+    return q;
+  }
+
+ private:
+  static void append_rows(QpProblem& q, const Eigen::MatrixXd& rows, const Eigen::VectorXd& lo,
+                          const Eigen::VectorXd& hi) {
+    const Eigen::Index m = q.G.rows(), k = rows.rows(), n = q.H.rows();
+    Eigen::MatrixXd G(m + k, n);
+    G << q.G, rows;
+    Eigen::VectorXd lg(m + k), ug(m + k);
+    lg << q.lg, lo;
+    ug << q.ug, hi;
+    q.G = G;
+    q.lg = lg;
+    q.ug = ug;
+  }
+
+  std::mt19937 rng_;
+};
+
+double inf_norm(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; }
+
+// 220 feasible instances: n up to 120, m up to 400; condition numbers 1 to 1e8; a quarter with
+// PSD H. Tolerances: the solver stops at a relative KKT residual of 1e-9 (settings), so
+// objectives agree to far better than 1e-6 relative; solutions of the strictly convex ones to
+// 1e-6 relative, except that a relative residual ε moves z by up to ε·cond(H), hence
+// cond·1e-13 (i.e. 1e-5 at cond 1e8, where Ipopt's own tol 1e-10 allows as much).
+TEST(QpSolverIpoptTest, RandomFeasibleQpsAgreeWithIpoptAndTheKnownOptimum) {
+  Generator gen(20261122);
+  QpSolver solver(QpSettings{.warm_start = false});
+  int worst_iterations = 0;
+  for (int instance = 0; instance < 220; ++instance) {
+    const int n = instance < 20 ? gen.integer(100, 120) : gen.integer(2, 60);
+    const int m = instance < 20 ? gen.integer(300, 400) : gen.integer(0, 3 * n);
+    const int p = gen.integer(0, n / 4);
+    const double cond = std::pow(10.0, gen.uniform(0.0, 8.0));
+    const bool psd = instance % 4 == 3;
+    const Generated g = gen.feasible(n, m, p, cond, psd);
+    SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n << " m " << m
+                                    << " p " << p << " cond " << cond << " psd " << psd);
+    const QpResult& r = solver.solve(g.problem);
+    ASSERT_EQ(r.status, QpStatus::kSolved) << to_string(r.status);
+    worst_iterations = std::max(worst_iterations, r.iterations);
+    const testing::IpoptQpSolution ref = testing::solve_with_ipopt(g.problem);
+    ASSERT_TRUE(ref.solved()) << "Ipopt status " << ref.status;
+
+    const double obj_scale = std::max(1.0, std::abs(g.objective_star));
+    EXPECT_NEAR(r.objective, g.objective_star, 1e-6 * obj_scale);
+    EXPECT_NEAR(r.objective, ref.objective, 1e-6 * obj_scale);
+    const double z_scale = std::max(1.0, inf_norm(g.z_star));
+    EXPECT_LE(r.primal_residual, 1e-7 * z_scale);  // 1e-9 of max(‖z‖, ‖Gz‖) ≲ 100‖z‖
+    if (g.strictly_convex) {
+      const double z_tol = std::max(1e-6, cond * 1e-13) * z_scale;
+      EXPECT_LE(inf_norm(r.z - g.z_star), z_tol);
+      EXPECT_LE(inf_norm(r.z - ref.z), z_tol);
+    }
+  }
+  RecordProperty("worst_iterations", worst_iterations);
+}
+
+// The Farkas block makes every instance infeasible; the solver must say so (never kSolved).
+TEST(QpSolverIpoptTest, RandomInfeasibleQpsAreReportedPrimalInfeasible) {
+  Generator gen(7);
+  QpSolver solver;
+  for (int instance = 0; instance < 30; ++instance) {
+    const int n = gen.integer(2, 40);
+    const QpProblem q = gen.infeasible(n, gen.integer(0, 2 * n));
+    SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n);
+    EXPECT_EQ(solver.solve(q).status, QpStatus::kPrimalInfeasible)
+        << to_string(solver.last_result().status);
+  }
+}
+
+TEST(QpSolverIpoptTest, RandomUnboundedQpsAreReportedDualInfeasible) {
+  Generator gen(11);
+  QpSolver solver;
+  for (int instance = 0; instance < 30; ++instance) {
+    const int n = gen.integer(2, 40);
+    const QpProblem q = gen.unbounded(n, gen.integer(0, 2 * n));
+    SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n);
+    EXPECT_EQ(solver.solve(q).status, QpStatus::kDualInfeasible)
+        << to_string(solver.last_result().status);
+  }
+}
+
+}  // namespace
+}  // namespace ridgeline::qp
