@@ -43,9 +43,12 @@ void run_fit_dem(const FitDemArgs& args) {
   const world::TerrainFitResult fit = world::fit_peak_terrain(grid, options);
   std::cout << "DEM " << args.dem << ": " << grid.cols << " x " << grid.rows << " cells\n"
             << fit.brief_report();
+  if (fit.status == world::TerrainFitStatus::kFailed) {
+    // A failed fit is not a terrain anyone should fly over: nothing is written.
+    throw InputError(args.dem, "the peak fit failed: " + fit.message);
+  }
   io::write_terrain_fit_yaml(args.out, fit, args.dem, grid);
   std::cout << "wrote " << args.out << '\n';
-  if (fit.status == world::TerrainFitStatus::kFailed) set_exit_code(1);
 }
 
 }  // namespace

@@ -74,7 +74,9 @@ sim::TerrainSource parse_terrain_include(const YamlValue& include, const fs::pat
   YamlMap terrain = top.required("terrain").as_map();
   (void)top.optional("fit_report");  // informational only
   top.finish();
-  return parse_terrain(terrain, path.parent_path(), include_depth + 1);
+  sim::TerrainSource source = parse_terrain(terrain, path.parent_path(), include_depth + 1);
+  if (source.included_from.empty()) source.included_from = path.string();
+  return source;
 }
 
 sim::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth) {

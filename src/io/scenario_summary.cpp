@@ -38,7 +38,7 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
   j["seed"] = s.seed;
   j["area_m"] = {{"x", {s.area.x_min_m, s.area.x_max_m}}, {"y", {s.area.y_min_m, s.area.y_max_m}}};
   const auto [lo, hi] = terrain_range(terrain, s.area);
-  std::string kind = "peaks";
+  std::string kind = s.terrain.included_from.empty() ? "peaks" : "peaks from " + s.terrain.included_from;
   if (s.terrain.kind == sim::TerrainSource::Kind::kDem) {
     kind = s.terrain.dem_model == sim::TerrainSource::DemModel::kRaster ? "dem raster"
                                                                          : "dem fitted peaks";

@@ -127,10 +127,13 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
     const bool terminal = j == np_ - 1 && options.terminal_output_weight.size() == ny_;
     qdiag_.segment(j * ny_, ny_) = terminal ? options.terminal_output_weight : options.output_weight;
   }
-  const int wcols = std::max(nxi_, nu_);
+  const int wcols = nxi_;
   Xs_ = MatX::Zero(ns_, wcols);
   Xy_ = MatX::Zero(ny_, wcols);
   tmp_ = MatX::Zero(ns_, wcols);
+  Us_ = MatX::Zero(ns_, nc_ * nu_);
+  Uy_ = MatX::Zero(ny_, nc_ * nu_);
+  Ut_ = MatX::Zero(ns_, nc_ * nu_);
   ds_ = VecX::Zero(ns_);
   dsn_ = VecX::Zero(ns_);
   w_ = VecX::Zero(ns_);
@@ -139,7 +142,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
   input_rows_begin_ = 0;
   output_rows_begin_ = nc_ * nu_;
   soft_rows_begin_ = output_rows_begin_ + (options.hard_output_limits ? np_ * ny_ : 0);
-  const int m = soft_rows_begin_ + cap;
+  soft_rows_in_qp_ = 0;
+  const int m = soft_rows_begin_;
   qp_.H = MatX::Zero(nz_, nz_);
   qp_.f = VecX::Zero(nz_);
   qp_.lb = VecX::Zero(nz_);
@@ -228,21 +232,27 @@ void IncrementalMpc::build_prediction() {
     F_.middleRows(j * ny_, ny_) = Xy;
   }
 
-  // Φ: column block i starts as B̃_i at row block i and propagates through Ã_{i+1}, Ã_{i+2}, …
-  Phi_.setZero();
-  auto Us = Xs_.leftCols(nu_);
-  auto Uy = Xy_.leftCols(nu_);
-  auto Ut = tmp_.leftCols(nu_);
-  for (int i = 0; i < nc_; ++i) {
-    Us = d.B[i];
-    Uy.noalias() = d.C * d.B[i];
-    Phi_.block(i * ny_, i * nu_, ny_, nu_) = Uy;
-    for (int j = i + 1; j < np_; ++j) {
-      Ut.noalias() = d.A[j] * Us;
-      Us = Ut;
-      Uy.noalias() += d.C * Ut;
-      Phi_.block(j * ny_, i * nu_, ny_, nu_) = Uy;
+  // Φ: column block i is B̃_i at row block i and then propagates through Ã_{i+1}, Ã_{i+2}, …
+  // All started blocks propagate together, one product with A_j per step instead of one per
+  // (i, j) pair.
+  auto Us = Us_.leftCols(nc_ * nu_);
+  auto Uy = Uy_.leftCols(nc_ * nu_);
+  auto Ut = Ut_.leftCols(nc_ * nu_);
+  Us.setZero();
+  Uy.setZero();
+  for (int j = 0; j < np_; ++j) {
+    const int started = std::min(j, nc_) * nu_;  // blocks i < j
+    if (started > 0) {
+      Ut.leftCols(started).noalias() = d.A[j] * Us.leftCols(started);
+      Us.leftCols(started) = Ut.leftCols(started);
+      Uy.leftCols(started).noalias() += d.C * Ut.leftCols(started);
     }
+    if (j < nc_) {
+      Us.middleCols(j * nu_, nu_) = d.B[j];
+      Uy.middleCols(j * nu_, nu_).noalias() = d.C * d.B[j];
+    }
+    const int active = std::min(j + 1, nc_) * nu_;
+    Phi_.block(j * ny_, 0, ny_, active) = Uy.leftCols(active);
   }
 
   // Y_w: response to the known terms w_j = E_j Δd_j + o_j from a zero augmented state.
@@ -262,6 +272,22 @@ void IncrementalMpc::build_prediction() {
   Yfree_.noalias() = F_.leftCols(ns_) * d.delta_state;
   Yfree_.noalias() += F_.rightCols(ny_) * d.output;
   Yfree_ += Yw_;
+}
+
+void IncrementalMpc::resize_soft_rows(int needed) {
+  // The QP carries the soft rows in blocks of kSoftRowBlock, padded with rows whose sides are
+  // both infinite: the size (and so the solver's workspace and warm start) changes only when
+  // the count crosses a block, and it shrinks only when a whole block more than needed is
+  // unused, so a count that wavers around a boundary does not resize every step.
+  const int cap = dims_.soft_row_capacity;
+  const int blocks = (needed + kSoftRowBlock - 1) / kSoftRowBlock;
+  const int wanted = std::min(cap, blocks * kSoftRowBlock);
+  if (wanted <= soft_rows_in_qp_ && soft_rows_in_qp_ - wanted <= kSoftRowBlock) return;
+  soft_rows_in_qp_ = wanted;
+  const int m = soft_rows_begin_ + wanted;
+  qp_.G.conservativeResize(m, nz_);  // keeps the constant input-limit rows at the top
+  qp_.lg.conservativeResize(m);
+  qp_.ug.conservativeResize(m);
 }
 
 void IncrementalMpc::assemble_qp() {
@@ -300,8 +326,8 @@ void IncrementalMpc::assemble_qp() {
     }
   }
   // Soft rows: aᵀ(Y_free,j + Φ_j ΔU) + σ_g ≥ b  ⇔  aᵀΦ_j ΔU + σ_g ≥ b − aᵀY_free,j.
-  const int cap = dims_.soft_row_capacity;
-  for (int r = 0; r < cap; ++r) {
+  resize_soft_rows(d.soft_row_count);
+  for (int r = 0; r < soft_rows_in_qp_; ++r) {
     auto row = qp_.G.row(soft_rows_begin_ + r);
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];

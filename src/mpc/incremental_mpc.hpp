@@ -46,8 +46,10 @@
 //
 // QP in z = [ΔU; σ] (n = Nc·n_u + slack groups): H = 2·blkdiag(ΦᵀQ̄Φ + R̄, ρ₂ I),
 // f = [−2 ΦᵀQ̄(R − Fξ − Y_w); ρ₁ 1]. All matrices are preallocated at construction; after the
-// first solve a step allocates nothing. Soft rows beyond those added in a step are left in the
-// QP with both sides infinite, so the QP's size is fixed and its warm start always applies.
+// first solve a step allocates nothing unless the number of soft rows grows past a block of
+// kSoftRowBlock rows (or shrinks by more than one): the QP holds the soft rows in such blocks,
+// padded with rows whose sides are both infinite, so its size — and the solver's warm start —
+// survives the small changes of the active set of soft rows from step to step.
 #pragma once
 
 #include <string_view>
@@ -178,6 +180,10 @@ class IncrementalMpc {
   std::string_view check_data() const;
   void assemble_qp();
   void extract_solution(const qp::QpResult& qp_result);
+  void resize_soft_rows(int needed);
+
+  static constexpr int kSoftRowBlock = 16;
+  int soft_rows_in_qp_ = 0;
 
   IncrementalMpcDims dims_;
   IncrementalMpcOptions options_;
@@ -198,6 +204,7 @@ class IncrementalMpc {
   VecX err_;    // R − Y_free (stacked)
   // Propagation workspace: X = [X_s; X_y] with up to n_ξ columns.
   MatX Xs_, Xy_, tmp_;
+  MatX Us_, Uy_, Ut_;  // Φ propagation: all Nc column blocks side by side
   VecX ds_, dsn_, w_;
 };
 

@@ -52,6 +52,7 @@ struct TerrainSource {
 
   Kind kind = Kind::kPeaks;
   world::PeakTerrainConfig peaks;  ///< kPeaks
+  std::string included_from;       ///< kPeaks read from a terrain file (`include:`), else empty
   std::string dem_path;            ///< kDem, resolved against the scenario file's folder
   DemModel dem_model = DemModel::kRaster;
   int dem_fit_peaks = 8;

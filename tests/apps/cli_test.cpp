@@ -105,4 +105,28 @@ TEST_F(Cli, RunWritesTheSummaryAndNothingOnBadInput) {
   EXPECT_FALSE(fs::exists(dir_ / "bad"));
 }
 
+TEST_F(Cli, SynthesizedDemIsFittedAndIncludedByAScenario) {
+  const std::string dem = (dir_ / "default.tif").string();
+  CliRun r = run("make-dem --cell 10 --noise 1 --seed 5 --out " + dem);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run("fit-dem --dem " + dem + " --peaks 7 --out " + (dir_ / "terrain.yaml").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // 1 m noise: the fit's RMSE is the noise level when the seven peaks are recovered.
+  EXPECT_THAT(r.out, ::testing::ContainsRegex("RMSE (0\\.9|1\\.0)[0-9]* m"));
+  std::string yaml = default_yaml();
+  const std::size_t begin = yaml.find("terrain:\n  combination");
+  const std::size_t end = yaml.find("\n# Vehicle defaults");
+  ASSERT_NE(begin, std::string::npos);
+  ASSERT_NE(end, std::string::npos);
+  yaml.replace(begin, end - begin, "terrain: {include: terrain.yaml}\n");
+  write("fitted.yaml", yaml);
+  r = run("validate " + (dir_ / "fitted.yaml").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("peaks from "));
+
+  r = run("make-dem --cell 10 --out " + (dir_ / "x.png").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("--out: must end in .tif"));
+}
+
 }  // namespace

@@ -291,7 +291,10 @@ TEST(UavTracker, TracksCircleUnderGustyWind) {
   EXPECT_LT(log.rmse_m, 1.0);
   EXPECT_LT(log.max_error_m, 3.0);
   expect_limits_held(log);
-  RecordProperty("circle_rmse_m", std::to_string(log.rmse_m));
+  std::vector<double> times = log.step_times_us;
+  std::sort(times.begin(), times.end());
+  std::printf("step time: median %.0f us, p99 %.0f us, max %.0f us\n", times[times.size() / 2],
+              times[times.size() * 99 / 100], times.back());
   std::printf("circle: RMSE %.3f m, max %.3f m\n", log.rmse_m, log.max_error_m);
 }
 
@@ -299,7 +302,10 @@ TEST(UavTracker, TracksClimbingHelixUnderGustyWind) {
   HelixReference::Config c;
   c.centre_m = Vec3(200.0, -100.0, 60.0);
   c.radius_m = 100.0;
-  c.speed_m_s = 12.0;
+  // The cruise speed: a faster reference plus a 2 m/s mean headwind and gusts would ask for
+  // more than the 15 m/s top of the speed band (the error would then be physical, not the
+  // controller's).
+  c.speed_m_s = 10.0;
   c.climb_rate_m_s = 1.5;
   c.turn_left = false;  // clockwise: exercises the other sign of ω and the heading wrap
   HelixReference ref(c);
