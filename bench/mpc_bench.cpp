@@ -107,6 +107,7 @@ void BM_UavTrackerStep(benchmark::State& bm) {
   std::vector<double> times_us;
   std::vector<double> qp_us;
   std::vector<double> cpu_us;
+  std::vector<double> build_us;
   int rows_sum = 0, iterations_sum = 0, not_solved = 0;
   double t = 0.0;
   for (auto _ : bm) {
@@ -119,6 +120,7 @@ void BM_UavTrackerStep(benchmark::State& bm) {
     bm.SetIterationTime(us * 1e-6);
     times_us.push_back(us);
     qp_us.push_back(r.qp_time_us);
+    build_us.push_back(r.build_time_us);
     rows_sum += r.soft_rows[0] + r.soft_rows[1] + r.soft_rows[2];
     iterations_sum += r.qp_iterations;
     not_solved += r.qp_status == qp::QpStatus::kSolved ? 0 : 1;
@@ -141,6 +143,8 @@ void BM_UavTrackerStep(benchmark::State& bm) {
   bm.counters["cpu_median_us"] = pct(cpu_us, 0.5);
   bm.counters["cpu_p99_us"] = pct(cpu_us, 0.99);
   bm.counters["qp_median_us"] = pct(qp_us, 0.5);
+  bm.counters["qp_p99_us"] = pct(qp_us, 0.99);
+  bm.counters["build_median_us"] = pct(build_us, 0.5);
   bm.counters["soft_rows_mean"] = rows_sum / n;
   bm.counters["qp_iter_mean"] = iterations_sum / n;
   bm.counters["not_solved"] = not_solved;

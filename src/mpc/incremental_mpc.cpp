@@ -127,13 +127,11 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
     const bool terminal = j == np_ - 1 && options.terminal_output_weight.size() == ny_;
     qdiag_.segment(j * ny_, ny_) = terminal ? options.terminal_output_weight : options.output_weight;
   }
-  const int wcols = nxi_;
-  Xs_ = MatX::Zero(ns_, wcols);
-  Xy_ = MatX::Zero(ny_, wcols);
-  tmp_ = MatX::Zero(ns_, wcols);
-  Us_ = MatX::Zero(ns_, nc_ * nu_);
-  Uy_ = MatX::Zero(ny_, nc_ * nu_);
-  Ut_ = MatX::Zero(ns_, nc_ * nu_);
+  y_ = VecX::Zero(ny_);
+  tmp_ = VecX::Zero(ns_);
+  P_ = RowMatX::Zero(ns_, nxi_ + 1 + nc_ * nu_);
+  T_ = RowMatX::Zero(ns_, nxi_ + 1 + nc_ * nu_);
+  Y_ = RowMatX::Zero(ny_, nxi_ + 1 + nc_ * nu_);
   ds_ = VecX::Zero(ns_);
   dsn_ = VecX::Zero(ns_);
   w_ = VecX::Zero(ns_);
@@ -216,56 +214,49 @@ std::string_view IncrementalMpc::check_data() const {
 
 void IncrementalMpc::build_prediction() {
   const IncrementalMpcData& d = data_;
-  // F: propagate X = T_j (the augmented transition) from the identity, one Ã_j at a time.
-  // Ã_j [X_s; X_y] = [A_j X_s; C A_j X_s + X_y].
-  auto Xs = Xs_.leftCols(nxi_);
-  auto Xy = Xy_.leftCols(nxi_);
-  auto tmp = tmp_.leftCols(nxi_);
-  Xs.setZero();
-  Xy.setZero();
-  Xs.leftCols(ns_).setIdentity();
-  Xy.rightCols(ny_).setIdentity();
+  // One propagation of the augmented system (eq. 7) yields F, Y_w and Φ together. Its columns
+  // are [F: n_ξ | Y_w: 1 | Φ: Nc·n_u]; P holds their Δs part, Y their y part:
+  //   P ← A_j P (+ w_j in the Y_w column, + B_j in the column block of move j),  Y ← Y + C P.
+  // F starts from ξ = I, Y_w and Φ from zero; a move's block starts at its own step.
+  // P and Y are row-major and the products skip the exact zeros of A_j and C: a row update is
+  // then one contiguous AXPY over all columns, and plant matrices such as I + Δt·A_c are mostly
+  // zeros (13 of 49 entries for the UAV), which a dense small-matrix product would not exploit.
+  const int wcol = nxi_;
+  const int ucol0 = nxi_ + 1;
+  RowMatX* P = &P_;
+  RowMatX* T = &T_;
+  P->setZero();
+  Y_.setZero();
+  P->leftCols(ns_).setIdentity();
+  Y_.block(0, ns_, ny_, ny_).setIdentity();
   for (int j = 0; j < np_; ++j) {
-    tmp.noalias() = d.A[j] * Xs;
-    Xs = tmp;
-    Xy.noalias() += d.C * tmp;
-    F_.middleRows(j * ny_, ny_) = Xy;
-  }
-
-  // Φ: column block i is B̃_i at row block i and then propagates through Ã_{i+1}, Ã_{i+2}, …
-  // All started blocks propagate together, one product with A_j per step instead of one per
-  // (i, j) pair.
-  auto Us = Us_.leftCols(nc_ * nu_);
-  auto Uy = Uy_.leftCols(nc_ * nu_);
-  auto Ut = Ut_.leftCols(nc_ * nu_);
-  Us.setZero();
-  Uy.setZero();
-  for (int j = 0; j < np_; ++j) {
-    const int started = std::min(j, nc_) * nu_;  // blocks i < j
-    if (started > 0) {
-      Ut.leftCols(started).noalias() = d.A[j] * Us.leftCols(started);
-      Us.leftCols(started) = Ut.leftCols(started);
-      Uy.leftCols(started).noalias() += d.C * Ut.leftCols(started);
+    const int active = ucol0 + std::min(j, nc_) * nu_;  // F, Y_w and the started moves
+    T->leftCols(active).setZero();
+    const MatX& A = d.A[j];
+    for (int l = 0; l < ns_; ++l) {
+      for (int k = 0; k < ns_; ++k) {
+        const double a = A(k, l);
+        if (a != 0.0) T->row(k).head(active) += a * P->row(l).head(active);
+      }
     }
-    if (j < nc_) {
-      Us.middleCols(j * nu_, nu_) = d.B[j];
-      Uy.middleCols(j * nu_, nu_).noalias() = d.C * d.B[j];
-    }
-    const int active = std::min(j + 1, nc_) * nu_;
-    Phi_.block(j * ny_, 0, ny_, active) = Uy.leftCols(active);
-  }
-
-  // Y_w: response to the known terms w_j = E_j Δd_j + o_j from a zero augmented state.
-  ds_.setZero();
-  auto yv = Xy_.col(0);
-  yv.setZero();
-  for (int j = 0; j < np_; ++j) {
     w_ = d.state_offset.col(j);
-    if (nd_ > 0) w_.noalias() += d.E[j] * d.disturbance_delta.col(j);
-    tmp_.col(0).noalias() = d.A[j] * ds_;
-    ds_ = tmp_.col(0) + w_;
-    yv.noalias() += d.C * ds_;
-    Yw_.segment(j * ny_, ny_) = yv;
+    if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+    T->col(wcol) += w_;
+    int used = active;
+    if (j < nc_) {
+      T->middleCols(ucol0 + j * nu_, nu_) = d.B[j];
+      used += nu_;
+    }
+    for (int l = 0; l < ns_; ++l) {
+      for (int k = 0; k < ny_; ++k) {
+        const double c = d.C(k, l);
+        if (c != 0.0) Y_.row(k).head(used) += c * T->row(l).head(used);
+      }
+    }
+    std::swap(P, T);
+    F_.middleRows(j * ny_, ny_) = Y_.leftCols(nxi_);
+    Yw_.segment(j * ny_, ny_) = Y_.col(wcol);
+    Phi_.block(j * ny_, 0, ny_, used - ucol0) = Y_.middleCols(ucol0, used - ucol0);
   }
 
   // Free response Y_free = F ξ_k + Y_w, ξ_k = [Δs_k; y_k].
@@ -332,7 +323,7 @@ void IncrementalMpc::assemble_qp() {
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
       const auto a = d.soft_normal.col(r);
-      row.head(nU).noalias() = a.transpose() * Phi_.middleRows(j * ny_, ny_);
+      row.head(nU).noalias() = a.transpose().lazyProduct(Phi_.middleRows(j * ny_, ny_));
       row.tail(ng_).setZero();
       row[nU + d.soft_group[r]] = 1.0;
       qp_.lg[soft_rows_begin_ + r] = d.soft_bound[r] - a.dot(Yfree_.segment(j * ny_, ny_));
@@ -366,17 +357,17 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   ds_ = d.delta_state;
   VecX& s = dsn_;  // running absolute state
   s = d.state;
-  auto y = Xy_.col(0);
+  VecX& y = y_;
   y = d.output;
   double cost = 0.0;
   for (int j = 0; j < np_; ++j) {
     w_ = d.state_offset.col(j);
-    if (nd_ > 0) w_.noalias() += d.E[j] * d.disturbance_delta.col(j);
-    if (j < nc_) w_.noalias() += d.B[j] * result_.moves.segment(j * nu_, nu_);
-    tmp_.col(0).noalias() = d.A[j] * ds_;
-    ds_ = tmp_.col(0) + w_;
+    if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+    if (j < nc_) w_.noalias() += d.B[j].lazyProduct(result_.moves.segment(j * nu_, nu_));
+    tmp_.noalias() = d.A[j].lazyProduct(ds_);
+    ds_ = tmp_ + w_;
     s += ds_;
-    y.noalias() += d.C * ds_;
+    y.noalias() += d.C.lazyProduct(ds_);
     result_.predicted_states.col(j) = s;
     result_.predicted_outputs.col(j) = y;
     for (int c = 0; c < ny_; ++c) {

@@ -202,9 +202,9 @@ class IncrementalMpc {
   VecX qdiag_;  // Np·n_y, diagonal of Q̄
   MatX QPhi_;   // Q̄ Φ
   VecX err_;    // R − Y_free (stacked)
-  // Propagation workspace: X = [X_s; X_y] with up to n_ξ columns.
-  MatX Xs_, Xy_, tmp_;
-  MatX Us_, Uy_, Ut_;  // Φ propagation: all Nc column blocks side by side
+  VecX y_, tmp_;
+  using RowMatX = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMatX P_, T_, Y_;  // propagation of [F | Y_w | Φ] (see build_prediction)
   VecX ds_, dsn_, w_;
 };
 

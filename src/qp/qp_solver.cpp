@@ -623,6 +623,9 @@ QpStatus QpSolver::Workspace::iterate(const QpSettings& settings, int max_iterat
     const double gap = mu_now * num_inequalities;
     const double gap_scale = std::max({1.0, std::abs(z.dot(Hz)), std::abs(pr.f.dot(z))});
     if (!std::isfinite(primal) || !std::isfinite(dual) || !std::isfinite(gap)) {
+#ifdef RIDGELINE_QP_TRACE
+      std::fprintf(stderr, "nonfinite k %d pr %g du %g gap %g |z| %g |y| %g\n", k, primal, dual, gap, inf_norm(z), inf_norm(y));
+#endif
       return QpStatus::kNumericalError;
     }
 #ifdef RIDGELINE_QP_TRACE

@@ -1,0 +1,83 @@
+#include "swarm/messages.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace ridgeline::swarm {
+namespace {
+
+std::optional<std::string> check_uav(const char* field, int id, int num_uavs) {
+  if (id < 0 || id >= num_uavs)
+    return fmt::format("{} {} is not a UAV of this team (0..{})", field, id, num_uavs - 1);
+  return std::nullopt;
+}
+
+std::optional<std::string> check_stamp(double stamp_s) {
+  if (!std::isfinite(stamp_s) || stamp_s < 0.0) return fmt::format("stamp {} s is invalid", stamp_s);
+  return std::nullopt;
+}
+
+struct Checker {
+  int num_uavs;
+  std::size_t max_points;
+
+  std::optional<std::string> operator()(const PredictedTrajectory& m) const {
+    if (auto e = check_uav("uav", m.uav, num_uavs)) return e;
+    if (auto e = check_stamp(m.stamp_s)) return e;
+    if (!(std::isfinite(m.step_s) && m.step_s > 0.0)) return fmt::format("step {} s is invalid", m.step_s);
+    if (m.positions_m.empty() || m.positions_m.size() > max_points)
+      return fmt::format("{} positions, expected 1..{}", m.positions_m.size(), max_points);
+    for (const Vec3& p : m.positions_m)
+      if (!p.allFinite()) return std::string("a position is not finite");
+    return std::nullopt;
+  }
+  std::optional<std::string> operator()(const ThreatReport& m) const {
+    if (auto e = check_uav("reporter", m.reporter, num_uavs)) return e;
+    if (auto e = check_stamp(m.stamp_s)) return e;
+    if (m.threat_id < 0) return fmt::format("threat id {} is negative", m.threat_id);
+    if (!m.centre_m.allFinite() || !m.velocity_m_s.allFinite())
+      return std::string("centre or velocity is not finite");
+    if (!(std::isfinite(m.radius_m) && m.radius_m > 0.0))
+      return fmt::format("radius {} m is invalid", m.radius_m);
+    return std::nullopt;
+  }
+  std::optional<std::string> operator()(const StateReport& m) const {
+    if (auto e = check_uav("uav", m.uav, num_uavs)) return e;
+    if (auto e = check_stamp(m.stamp_s)) return e;
+    if (!m.state.allFinite()) return std::string("state is not finite");
+    return std::nullopt;
+  }
+  std::optional<std::string> operator()(const ReferencePlan& m) const {
+    if (auto e = check_uav("uav", m.uav, num_uavs)) return e;
+    if (auto e = check_stamp(m.stamp_s)) return e;
+    if (m.waypoints_m.size() != m.times_s.size() || m.waypoints_m.size() < 2)
+      return fmt::format("{} waypoints and {} times: need two or more of each, equally many",
+                         m.waypoints_m.size(), m.times_s.size());
+    for (std::size_t k = 0; k < m.waypoints_m.size(); ++k) {
+      if (!m.waypoints_m[k].allFinite() || !std::isfinite(m.times_s[k]))
+        return fmt::format("waypoint {} is not finite", k);
+      if (k > 0 && !(m.times_s[k] > m.times_s[k - 1]))
+        return fmt::format("times are not increasing at waypoint {}", k);
+    }
+    return std::nullopt;
+  }
+};
+
+struct TypeName {
+  const char* operator()(const PredictedTrajectory&) const { return "PredictedTrajectory"; }
+  const char* operator()(const ThreatReport&) const { return "ThreatReport"; }
+  const char* operator()(const StateReport&) const { return "StateReport"; }
+  const char* operator()(const ReferencePlan&) const { return "ReferencePlan"; }
+};
+
+}  // namespace
+
+std::optional<std::string> check_message(const Message& message, int num_uavs,
+                                         std::size_t max_points) {
+  return std::visit(Checker{num_uavs, max_points}, message);
+}
+
+const char* message_type_name(const Message& message) { return std::visit(TypeName{}, message); }
+
+}  // namespace ridgeline::swarm
