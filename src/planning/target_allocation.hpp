@@ -11,7 +11,8 @@
 //
 // Routes. UAV i visits the ordered list r_i = (j_1, …, j_m) and does not return. Its route cost
 // and the arrival cost of its k-th target are
-//   C_i = S(i, j_1) + Σ_{k≥2} T(j_{k−1}, j_k),      A_{j_k} = S(i, j_1) + Σ_{2≤l≤k} T(j_{l−1}, j_l).
+//   C_i = S(i, j_1) + Σ_{k≥2} T(j_{k−1}, j_k),
+//   A_{j_k} = S(i, j_1) + Σ_{2≤l≤k} T(j_{l−1}, j_l).
 //
 // Objective (documented choice):
 //   J = λ · max_i C_i  +  Σ_i C_i  +  β · Σ_j π_j · A_j,        π_j = p_j − min_k p_k ≥ 0
@@ -36,9 +37,11 @@
 //    reversal within a route, only where the priority order allows it) until no move improves J;
 //    the better result is returned. Deterministic (ties break on the lowest index). Measured
 //    against brute force on 200 random instances with ≤ 3 UAVs and ≤ 6 targets
-//    (tests/planning/target_allocation_test.cpp): see the gap stated in that test.
+//    (tests/planning/target_allocation_test.cpp): descent alone mean gap 0.14 %, worst 11.3 %;
+//    with the default ILS rounds optimal on all 200 (stated bounds: mean ≤ 0.5 %, worst ≤ 5 %).
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -64,9 +67,13 @@ struct AllocationProblem {
 };
 
 struct AllocationOptions {
-  double makespan_weight = 1.0;  ///< λ ≥ 0 on max_i C_i
-  double priority_weight = 0.1;  ///< β ≥ 0 on Σ π_j A_j
+  double makespan_weight = 1.0;        ///< λ ≥ 0 on max_i C_i
+  double priority_weight = 0.1;        ///< β ≥ 0 on Σ π_j A_j
   int max_local_search_passes = 1000;  ///< each pass applies the single best improving move
+  /// Iterated-local-search rounds after the two constructions (heuristic case): each kicks the
+  /// best solution (two targets moved at random) and descends again. 0 disables.
+  int perturbation_rounds = 30;
+  std::uint64_t perturbation_seed = 1;  ///< fixed seed: the result is deterministic
 };
 
 enum class AllocationStatus {
@@ -87,7 +94,7 @@ struct AllocationResult {
   double total_cost = 0.0;               ///< Σ_i C_i
   double priority_cost = 0.0;            ///< Σ_j π_j A_j (unweighted by β)
   int hungarian_solves = 0;
-  int local_search_moves = 0;            ///< improving moves applied (heuristic case)
+  int local_search_moves = 0;  ///< improving moves applied (heuristic case)
   double solve_time_ms = 0.0;
 };
 
@@ -119,9 +126,9 @@ Assignment solve_assignment(const MatX& cost);
 
 /// Options of the terrain-aware straight-line cost estimate.
 struct CostEstimateOptions {
-  double clearance_m = 20.0;      ///< h_safe: the profile flown is max(line, H + h_safe + model error)
-  double climb_penalty = 2.0;     ///< extra cost per metre climbed (dimensionless, ≥ 0)
-  double sample_step_m = 10.0;    ///< terrain profile sampling step along the line (> 0)
+  double clearance_m = 20.0;   ///< h_safe: the profile flown is max(line, H + h_safe + model error)
+  double climb_penalty = 2.0;  ///< extra cost per metre climbed (dimensionless, ≥ 0)
+  double sample_step_m = 10.0;  ///< terrain profile sampling step along the line (> 0)
 };
 
 struct AllocationCosts {
@@ -132,7 +139,8 @@ struct AllocationCosts {
 /// Estimated cost between two points a → b over `terrain`: the straight segment is sampled every
 /// ≤ sample_step_m; the flown altitude at each sample is z_f = max(z_line, H(x, y) + h_safe + e)
 /// (e = terrain.model_error_m()); the cost is the 3-D length of the sampled profile
-/// Σ √(Δs² + Δz_f²) plus climb_penalty · Σ max(0, Δz_f). On a flat, clear line it is |b − a|.
+/// Σ √(Δs² + Δz_f²) plus climb_penalty · Σ max(0, Δz_f). On a level line clear of the terrain it is
+/// |b − a|.
 double estimate_leg_cost(const world::Terrain& terrain, const Vec3& a_m, const Vec3& b_m,
                          const CostEstimateOptions& options = {});
 
