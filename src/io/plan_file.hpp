@@ -1,0 +1,25 @@
+// The global plan as a file: DIR/plan.json, written by `ridgeline plan` (and `run`).
+//
+// {"scenario", "status", "solve_time_s", "stage_times_s": {...}, "cost": {...},
+//  "validation": {...},
+//  "uavs": [{"id", "targets": [names], "waypoints": [[x,y,z],...],
+//            "reference": [[t,x,y,z],...], "length_m", "duration_s", ...}]}
+// The reference is sampled at the control period; positions are ENU metres, times seconds.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "planning/global_planner.hpp"
+#include "sim/scenario.hpp"
+
+namespace ridgeline::io {
+
+nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenario& scenario);
+
+/// A few lines a person reads in seconds: per UAV its targets, length, duration and the
+/// validated minimum clearance and separation; the planning time.
+std::string plan_summary_text(const planning::GlobalPlan& plan, const sim::Scenario& scenario);
+
+}  // namespace ridgeline::io

@@ -1,0 +1,221 @@
+#include "planning/global_planner.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace ridgeline::planning {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+GlobalPlan fail(GlobalPlan plan, GlobalPlanStatus status, std::string message) {
+  plan.status = status;
+  plan.message = std::move(message);
+  plan.uavs.clear();
+  return plan;
+}
+
+std::string check_problem(const GlobalPlanningProblem& p) {
+  if (!p.terrain) return "terrain: missing";
+  if (p.uavs.empty()) return "uavs: at least one UAV is needed";
+  if (p.targets.empty()) return "targets: at least one target is needed";
+  if (!(p.min_altitude_m < p.max_altitude_m)) return "altitude: min must be below max";
+  if (!(p.terrain_clearance_m >= 0.0)) return "terrain_clearance_m: must not be negative";
+  if (!(p.separation_m > 0.0)) return "separation_m: must be positive";
+  return "";
+}
+
+// Position of a UAV at time t: its reference while it lasts, then its final point (a UAV that
+// has finished its route holds there in the separation check).
+Vec3 position_at(const TimeParametrizationResult& timing, double t_s) {
+  const std::vector<double>& times = timing.sample_times_s;
+  if (t_s >= times.back()) return timing.samples.back().position_m;
+  if (t_s <= times.front()) return timing.samples.front().position_m;
+  return timing.reference->at(t_s).position_m;
+}
+
+// Stage 5: every hard constraint on the final references, densely. Returns "" or where the
+// first violation is.
+std::string validate_references(const GlobalPlanningProblem& problem,
+                                 const GlobalPlannerOptions& options, const GlobalPlan& plan,
+                                 PlanValidationSummary& summary) {
+  const world::Terrain& terrain = *problem.terrain;
+  const double floor_m = problem.terrain_clearance_m + terrain.model_error_m();
+  summary = PlanValidationSummary{};
+  summary.min_terrain_clearance_m = std::numeric_limits<double>::infinity();
+  summary.min_altitude_m = std::numeric_limits<double>::infinity();
+  summary.max_altitude_m = -std::numeric_limits<double>::infinity();
+  summary.min_separation_m = std::numeric_limits<double>::infinity();
+  std::string first_violation;
+  auto report = [&](std::string text) {
+    if (first_violation.empty()) first_violation = std::move(text);
+  };
+
+  for (const UavPlan& uav : plan.uavs) {
+    const auto& samples = uav.timing.samples;
+    const auto& times = uav.timing.sample_times_s;
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      // Between samples the reference is linear: subdivide so terrain is sampled at least
+      // every validation_step_m.
+      const Vec3 a = samples[k].position_m;
+      const Vec3 b = k + 1 < samples.size() ? samples[k + 1].position_m : a;
+      const int pieces = std::max(1, static_cast<int>(std::ceil((b - a).norm() / options.validation_step_m)));
+      for (int q = 0; q < pieces; ++q) {
+        const Vec3 p = a + (b - a) * (static_cast<double>(q) / pieces);
+        const double clearance = p.z() - terrain.height(p.x(), p.y());
+        ++summary.samples_checked;
+        summary.min_terrain_clearance_m = std::min(summary.min_terrain_clearance_m, clearance);
+        summary.min_altitude_m = std::min(summary.min_altitude_m, p.z());
+        summary.max_altitude_m = std::max(summary.max_altitude_m, p.z());
+        if (clearance < floor_m - 1e-6) {
+          report(fmt::format("terrain clearance: {} at t = {:.2f} s, ({:.1f}, {:.1f}, {:.1f}) is "
+                             "{:.2f} m above the terrain, below the required {:.2f} m",
+                             uav.name, times[k], p.x(), p.y(), p.z(), clearance, floor_m));
+        }
+        if (p.z() < problem.min_altitude_m - 1e-6 || p.z() > problem.max_altitude_m + 1e-6) {
+          report(fmt::format("altitude band: {} at t = {:.2f} s flies at {:.1f} m, outside "
+                             "[{}, {}] m",
+                             uav.name, times[k], p.z(), problem.min_altitude_m,
+                             problem.max_altitude_m));
+        }
+      }
+      const double pitch = std::atan2(std::abs(samples[k].climb_rate_m_s), samples[k].speed_m_s);
+      summary.max_pitch_rad = std::max(summary.max_pitch_rad, pitch);
+    }
+  }
+
+  // Separation at equal times (eq. 21), at every control period over the longest mission.
+  double end_s = 0.0;
+  double begin_s = std::numeric_limits<double>::infinity();
+  for (const UavPlan& uav : plan.uavs) {
+    end_s = std::max(end_s, uav.timing.sample_times_s.back());
+    begin_s = std::min(begin_s, uav.timing.sample_times_s.front());
+  }
+  const double dt = options.timing.control_period_s;
+  std::vector<Vec3> positions(plan.uavs.size());
+  for (double t = begin_s; t <= end_s + 1e-9; t += dt) {
+    for (std::size_t i = 0; i < plan.uavs.size(); ++i) positions[i] = position_at(plan.uavs[i].timing, t);
+    for (std::size_t i = 0; i < plan.uavs.size(); ++i) {
+      for (std::size_t j = i + 1; j < plan.uavs.size(); ++j) {
+        const double d = (positions[i] - positions[j]).norm();
+        summary.min_separation_m = std::min(summary.min_separation_m, d);
+        if (d < problem.separation_m - 1e-6) {
+          report(fmt::format("separation: {} and {} are {:.2f} m apart at t = {:.2f} s near "
+                             "({:.1f}, {:.1f}, {:.1f}), below d_safe {} m",
+                             plan.uavs[i].name, plan.uavs[j].name, d, t, positions[i].x(),
+                             positions[i].y(), positions[i].z(), problem.separation_m));
+        }
+      }
+    }
+  }
+  return first_violation;
+}
+
+}  // namespace
+
+std::string_view to_string(GlobalPlanStatus status) {
+  switch (status) {
+    case GlobalPlanStatus::kPlanned: return "planned";
+    case GlobalPlanStatus::kInvalidInput: return "invalid input";
+    case GlobalPlanStatus::kUnreachable: return "unreachable";
+    case GlobalPlanStatus::kValidationFailed: return "validation failed";
+  }
+  return "unknown";
+}
+
+GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlannerOptions& options) {
+  const auto start = Clock::now();
+  GlobalPlan plan;
+  if (std::string problem_error = check_problem(problem); !problem_error.empty())
+    return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, problem_error);
+
+  // 1. Allocation on terrain-aware estimates.
+  auto stage = Clock::now();
+  std::vector<Vec3> starts;
+  for (const PlannerUav& u : problem.uavs) starts.push_back(u.start_m);
+  CostEstimateOptions cost_options = options.cost_estimate;
+  cost_options.clearance_m = problem.terrain_clearance_m;
+  const AllocationCosts costs =
+      estimate_allocation_costs(*problem.terrain, starts, problem.targets, cost_options);
+  AllocationProblem allocation_problem{starts, problem.targets, costs.start_cost, costs.target_cost};
+  plan.allocation = allocate_targets(allocation_problem, options.allocation);
+  plan.allocation_time_s = seconds_since(stage);
+  if (plan.allocation.status == AllocationStatus::kInvalidInput)
+    return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, plan.allocation.message);
+
+  // 2. Initial paths through each UAV's targets.
+  stage = Clock::now();
+  PathSearchOptions search = options.search;
+  search.safe_clearance_m = problem.terrain_clearance_m;
+  search.min_altitude_m = problem.min_altitude_m;
+  search.max_altitude_m = problem.max_altitude_m;
+  double max_pitch_rad = kPi / 2;
+  double min_turn_radius_m = 0.0;
+  for (const PlannerUav& u : problem.uavs) {
+    max_pitch_rad = std::min(max_pitch_rad, u.vehicle.max_pitch_rad);
+    min_turn_radius_m = std::max(min_turn_radius_m, u.vehicle.min_turn_radius_m);
+  }
+  search.max_pitch_rad = max_pitch_rad;
+  search.turn_margin_m = std::max(search.turn_margin_m, min_turn_radius_m);
+  try {
+    const ClearanceGrid grid(*problem.terrain, problem.area, search);
+    for (std::size_t i = 0; i < problem.uavs.size(); ++i) {
+      const PlannerUav& u = problem.uavs[i];
+      UavPlan uav_plan;
+      uav_plan.name = u.name;
+      uav_plan.targets = plan.allocation.routes[i];
+      if (uav_plan.targets.empty()) continue;  // spare UAV: no route to fly
+      std::vector<NamedPoint> targets;
+      for (int t : uav_plan.targets)
+        targets.push_back({problem.targets[static_cast<std::size_t>(t)].name,
+                           problem.targets[static_cast<std::size_t>(t)].position_m});
+      const PathResult path = plan_initial_path(grid, {u.name, u.start_m}, targets);
+      if (path.status == PathStatus::kUnreachable)
+        return fail(std::move(plan), GlobalPlanStatus::kUnreachable, path.message);
+      if (path.status != PathStatus::kFound)
+        return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, path.message);
+      uav_plan.waypoints_m = path.waypoints_m;
+      plan.uavs.push_back(std::move(uav_plan));
+    }
+  } catch (const InputError& e) {
+    return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, e.what());
+  }
+  plan.search_time_s = seconds_since(stage);
+
+  // 4. Time parametrization at cruise speed.
+  stage = Clock::now();
+  for (UavPlan& uav_plan : plan.uavs) {
+    const PlannerUav& u = *std::find_if(problem.uavs.begin(), problem.uavs.end(),
+                                        [&](const PlannerUav& x) { return x.name == uav_plan.name; });
+    uav_plan.timing = time_parametrize(uav_plan.waypoints_m, u.vehicle, options.timing);
+    if (uav_plan.timing.status == TimeParametrizationStatus::kInvalidInput ||
+        !uav_plan.timing.reference) {
+      return fail(std::move(plan), GlobalPlanStatus::kInvalidInput,
+                  uav_plan.name + ": " + uav_plan.timing.message);
+    }
+    if (!uav_plan.timing.violations.empty()) {
+      return fail(std::move(plan), GlobalPlanStatus::kValidationFailed,
+                  fmt::format("{}: {}", uav_plan.name, uav_plan.timing.violations.front().description));
+    }
+  }
+  plan.timing_time_s = seconds_since(stage);
+
+  // 5. Dense validation of the final references.
+  stage = Clock::now();
+  const std::string violation = validate_references(problem, options, plan, plan.validation);
+  plan.validation_time_s = seconds_since(stage);
+  plan.total_time_s = seconds_since(start);
+  if (!violation.empty()) return fail(std::move(plan), GlobalPlanStatus::kValidationFailed, violation);
+  plan.status = GlobalPlanStatus::kPlanned;
+  return plan;
+}
+
+}  // namespace ridgeline::planning
