@@ -1,12 +1,15 @@
 // `ridgeline run [--scenario FILE] --out DIR`: the main job. It loads and validates the
-// scenario (the embedded default without --scenario) and writes DIR/summary.json. The
-// closed-loop flight lands with the simulator; until then the job plans nothing.
+// scenario (the embedded default without --scenario), plans every UAV's reference with the
+// global planner and writes DIR/summary.json and DIR/plan.json. The closed-loop flight
+// (simulator, agents, metrics) is the next stage of this command.
 #include <iostream>
 
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
+#include "io/plan_file.hpp"
 #include "io/scenario_file.hpp"
 #include "io/scenario_summary.hpp"
+#include "sim/mission_problem.hpp"
 
 namespace ridgeline::apps {
 
@@ -23,11 +26,28 @@ void register_run_command(CLI::App& app) {
     const io::LoadedScenario loaded = args->scenario.empty()
                                           ? io::load_default_scenario()
                                           : io::load_scenario_file(args->scenario);
-    const nlohmann::json summary = io::summarize(loaded);
+    nlohmann::json summary = io::summarize(loaded);
     std::cout << io::summary_text(summary);
-    const std::filesystem::path out = std::filesystem::path(args->out) / "summary.json";
-    io::write_file_atomically(out, summary.dump(2) + "\n");
-    std::cout << "wrote " << out.string() << '\n';
+    const planning::GlobalPlan plan = planning::plan_mission(
+        sim::make_planning_problem(loaded.scenario, loaded.terrain),
+        sim::make_planner_options(loaded.scenario));
+    if (plan.status != planning::GlobalPlanStatus::kPlanned) {
+      std::cerr << "error: planning failed (" << planning::to_string(plan.status)
+                << "): " << plan.message << '\n';
+      set_exit_code(3);
+      return;
+    }
+    std::cout << io::plan_summary_text(plan, loaded.scenario);
+    const nlohmann::json plan_json = io::plan_to_json(plan, loaded.scenario);
+    summary["plan"] = {{"status", plan_json["status"]},
+                       {"solve_time_s", plan_json["solve_time_s"]},
+                       {"cost", plan_json["cost"]},
+                       {"validation", plan_json["validation"]}};
+    const std::filesystem::path dir(args->out);
+    io::write_file_atomically(dir / "plan.json", plan_json.dump() + "\n");
+    io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
+    std::cout << "wrote " << (dir / "summary.json").string() << " and "
+              << (dir / "plan.json").string() << '\n';
   });
 }
 

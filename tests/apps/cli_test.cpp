@@ -1,6 +1,8 @@
 // End-to-end checks of the `ridgeline` program as a user runs it.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "support/temp_dir.hpp"
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -30,10 +32,7 @@ std::string slurp(const fs::path& p) {
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("ridgeline_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = ridgeline::testing_support::fresh_test_dir();
   }
   void TearDown() override { fs::remove_all(dir_); }
 

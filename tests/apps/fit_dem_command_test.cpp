@@ -1,5 +1,7 @@
 // Runs the `ridgeline fit-dem` program (RIDGELINE_CLI_PATH) end to end.
 #include <gtest/gtest.h>
+
+#include "support/temp_dir.hpp"
 #include <sys/wait.h>
 #include <yaml-cpp/yaml.h>
 
@@ -38,10 +40,7 @@ CliRun run_cli(const std::string& args, const fs::path& log) {
 class FitDemCommandTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::path(::testing::TempDir()) / (std::string("ridgeline_fit_dem_") + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = testing_support::fresh_test_dir();
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;

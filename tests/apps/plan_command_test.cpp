@@ -2,6 +2,8 @@
 // the file's references are checked against the scenario's terrain with no planner code.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "support/temp_dir.hpp"
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -33,9 +35,7 @@ std::string slurp(const fs::path& p) {
 class PlanCommand : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / "ridgeline_plan_command_test";
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = testing_support::fresh_test_dir();
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;

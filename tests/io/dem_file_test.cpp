@@ -3,6 +3,8 @@
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 
+#include "support/temp_dir.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -24,10 +26,7 @@ namespace fs = std::filesystem;
 class DemFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::path(::testing::TempDir()) / (std::string("ridgeline_dem_") + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = testing_support::fresh_test_dir();
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;

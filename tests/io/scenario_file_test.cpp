@@ -4,6 +4,8 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "support/temp_dir.hpp"
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -214,8 +216,7 @@ TEST(ScenarioFile, MissingFileIsNamed) {
 }
 
 TEST(ScenarioFile, TerrainIncludeIsResolvedAgainstTheScenarioFolder) {
-  const auto dir = std::filesystem::temp_directory_path() / "ridgeline_include_test";
-  std::filesystem::create_directories(dir);
+  const auto dir = testing_support::fresh_test_dir();
   {
     std::ofstream t(dir / "fitted.yaml");
     t << "terrain:\n  combination: sum\n  base_elevation_m: 5\n  model_error_m: 2.5\n"
@@ -249,8 +250,7 @@ TEST(ScenarioFile, TerrainIncludeIsResolvedAgainstTheScenarioFolder) {
 class DemScenario : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() / "ridgeline_dem_scenario_test";
-    std::filesystem::create_directories(dir_);
+    dir_ = testing_support::fresh_test_dir();
     const LoadedScenario reference = load_default_scenario();
     peaks_ = reference.terrain;
     const world::RasterGrid grid = world::sample_terrain(*peaks_, 100, 100, Vec2(10, 10), Vec2(20, 20));

@@ -1,6 +1,8 @@
 #include "io/terrain_fit_file.hpp"
 
 #include <gtest/gtest.h>
+
+#include "support/temp_dir.hpp"
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -70,7 +72,7 @@ TEST(TerrainFitFileTest, SumCombinationIsNamedSum) {
 }
 
 TEST(TerrainFitFileTest, WritesAtomicallyAndLeavesNoTemporary) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "ridgeline_terrain_fit_file";
+  const fs::path dir = testing_support::fresh_test_dir();
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path file = dir / "terrain.yaml";

@@ -11,9 +11,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <string>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "core/error.hpp"
@@ -93,40 +92,14 @@ struct Log {
   double min_terrain_clearance_m = 1e9;
   double min_separation_m = 1e9;
   double max_slack_m = 0.0;
+  double max_terrain_slack_m = 0.0;
   int fallbacks = 0;
   int clamped = 0;
   int steps = 0;
   std::vector<double> step_times_us;
 };
 
-void dump_qp(const qp::QpProblem& q, const char* path) {
-  static std::vector<qp::QpProblem> dumped;
-  dumped.push_back(q);
-  FILE* f = std::fopen(path, "wb");
-  std::fwrite("RLQP", 1, 4, f);
-  const int32_t count = static_cast<int32_t>(dumped.size());
-  std::fwrite(&count, 4, 1, f);
-  for (const auto& p : dumped) {
-    const int32_t n = static_cast<int32_t>(p.H.rows()), m = static_cast<int32_t>(p.G.rows());
-    std::fwrite(&n, 4, 1, f);
-    std::fwrite(&m, 4, 1, f);
-    const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> H = p.H, G = p.G;
-    auto clip = [](VecX v) { for (auto& x : v) x = std::clamp(x, -1e20, 1e20); return v; };
-    std::fwrite(H.data(), 8, H.size(), f);
-    std::fwrite(p.f.data(), 8, n, f);
-    std::fwrite(G.data(), 8, G.size(), f);
-    const VecX lg = clip(p.lg), ug = clip(p.ug), lb = clip(p.lb), ub = clip(p.ub);
-    std::fwrite(lg.data(), 8, m, f);
-    std::fwrite(ug.data(), 8, m, f);
-    std::fwrite(lb.data(), 8, n, f);
-    std::fwrite(ub.data(), 8, n, f);
-  }
-  std::fclose(f);
-}
-
-Log run(const UavTrackerOptions& options_in, const ReferenceTrajectory& ref, const Scenario& sc) {
-  UavTrackerOptions options = options_in;
-  if (std::getenv("MPC_TOL")) options.qp_settings.tolerance = std::atof(std::getenv("MPC_TOL"));
+Log run(const UavTrackerOptions& options, const ReferenceTrajectory& ref, const Scenario& sc) {
   UavTracker tracker(options);
   const vehicle::VehicleParams truth = truth_params();
   GustModel wind(sc.mean_wind_m_s, sc.gust_std_m_s, sc.gust_tau_s, sc.wind_noise_m_s, sc.seed);
@@ -147,8 +120,9 @@ Log run(const UavTrackerOptions& options_in, const ReferenceTrajectory& ref, con
     const UavTrackerResult& r = tracker.step(t, s, w_meas, ref, env);
     log.step_times_us.push_back(r.step_time_us);
     const Input u = r.command;
-    log.max_limit_violation = std::max(
-        log.max_limit_violation, (u - vehicle::clamp_to_limits(u, s, options.vehicle)).cwiseAbs().maxCoeff());
+    log.max_limit_violation =
+        std::max(log.max_limit_violation,
+                 (u - vehicle::clamp_to_limits(u, s, options.vehicle)).cwiseAbs().maxCoeff());
     if (!first) {
       for (int c = 0; c < 3; ++c) {
         const double du = std::abs(u[c] - u_prev[c]);
@@ -159,16 +133,9 @@ Log run(const UavTrackerOptions& options_in, const ReferenceTrajectory& ref, con
     first = false;
     u_prev = u;
     log.fallbacks += r.fallback ? 1 : 0;
-    if (r.fallback && std::getenv("MPC_DEBUG")) {
-      const auto& q = tracker.mpc().qp_result();
-      std::printf("t %.2f fallback %s it %d pr %.3g du %.3g gap %.3g rows %d %d %d slack %g\n", t,
-                  std::string(qp::to_string(r.qp_status)).c_str(), r.qp_iterations,
-                  q.primal_residual, q.dual_residual, q.duality_gap, r.soft_rows[0], r.soft_rows[1],
-                  r.soft_rows[2], r.max_slack_m());
-      if (std::getenv("MPC_DUMP")) dump_qp(tracker.mpc().qp_problem(), std::getenv("MPC_DUMP"));
-    }
-    log.clamped += r.command_clamped ? 1 : 0;
     log.max_slack_m = std::max(log.max_slack_m, r.max_slack_m());
+    log.max_terrain_slack_m = std::max(log.max_terrain_slack_m,
+                                       r.slack_m[static_cast<int>(SoftConstraintKind::kTerrain)]);
     for (const world::Threat& th : sc.threats) {
       for (int j = 0; j < r.predicted_positions_m.cols(); ++j) {
         const double tj = r.first_prediction_time_s + j * r.prediction_step_s;
@@ -186,8 +153,9 @@ Log run(const UavTrackerOptions& options_in, const ReferenceTrajectory& ref, con
       const double ti = t + (i + 1) * h;
       for (const world::Threat& th : sc.threats) {
         if (th.active(ti)) {
-          log.min_threat_clearance_flown_m = std::min(
-              log.min_threat_clearance_flown_m, (s.head<3>() - th.centre_at(ti)).norm() - th.radius_m);
+          log.min_threat_clearance_flown_m =
+              std::min(log.min_threat_clearance_flown_m,
+                       (s.head<3>() - th.centre_at(ti)).norm() - th.radius_m);
         }
       }
       if (sc.terrain != nullptr) {
@@ -195,7 +163,8 @@ Log run(const UavTrackerOptions& options_in, const ReferenceTrajectory& ref, con
             std::min(log.min_terrain_clearance_m, s[vehicle::kZ] - sc.terrain->height(s[0], s[1]));
       }
       for (const NeighbourPrediction& nb : sc.neighbours) {
-        log.min_separation_m = std::min(log.min_separation_m, (s.head<3>() - nb.position_at(ti)).norm());
+        log.min_separation_m =
+            std::min(log.min_separation_m, (s.head<3>() - nb.position_at(ti)).norm());
       }
     }
     if (sc.wrap_heading) s[vehicle::kPsi] = wrap_angle(s[vehicle::kPsi]);
@@ -207,10 +176,6 @@ Log run(const UavTrackerOptions& options_in, const ReferenceTrajectory& ref, con
       log.max_error_m = std::max(log.max_error_m, e);
     }
     log.final_error_m = e;
-    if (std::getenv("MPC_TRACE") && k % 50 == 0) {
-      const Vec3 ev = s.head<3>() - ref.at(t_next).position_m;
-      std::printf("t %.1f err %.2f %.2f %.2f  v %.2f w %.2f u %.2f %.3f %.2f\n", t_next, ev.x(), ev.y(), ev.z(), s[4], s[6], u[0], u[1], u[2]);
-    }
   }
   log.rmse_m = n_err > 0 ? std::sqrt(sq / n_err) : 0.0;
   log.steps = steps;
@@ -279,23 +244,49 @@ Scenario gusty(unsigned seed) {
 // time is about 1 s (τ_v + prediction lag), so the position excursion a gust change causes before
 // it is corrected is of order 0.2 m/s × 1 s × a few ≈ 0.5 m. We require RMSE < 1 m and max < 3 m
 // (the paper reports 0.02–0.04 "km" on its scale; these bounds are far tighter).
-TEST(UavTracker, TracksCircleUnderGustyWind) {
+HelixReference circle_150m() {
   HelixReference::Config c;
   c.centre_m = Vec3(0.0, 0.0, 120.0);
   c.radius_m = 150.0;
   c.speed_m_s = 10.0;
-  HelixReference ref(c);
+  return HelixReference(c);
+}
+
+class CircleTracking : public ::testing::TestWithParam<LinearizationPoint> {};
+
+// Both linearization points track the circle (near the reference they coincide to first order).
+TEST_P(CircleTracking, TracksCircleUnderGustyWind) {
+  const HelixReference ref = circle_150m();
   Scenario sc = gusty(3);
   sc.initial = state_on(ref.at(0.0));
-  const Log log = run(UavTrackerOptions{}, ref, sc);
+  UavTrackerOptions o;
+  o.linearization = GetParam();
+  const Log log = run(o, ref, sc);
   EXPECT_LT(log.rmse_m, 1.0);
   EXPECT_LT(log.max_error_m, 3.0);
   expect_limits_held(log);
   std::vector<double> times = log.step_times_us;
   std::sort(times.begin(), times.end());
-  std::printf("step time: median %.0f us, p99 %.0f us, max %.0f us\n", times[times.size() / 2],
-              times[times.size() * 99 / 100], times.back());
-  std::printf("circle: RMSE %.3f m, max %.3f m\n", log.rmse_m, log.max_error_m);
+  std::printf("circle: RMSE %.3f m, max %.3f m; step time median %.0f us, p99 %.0f us\n",
+              log.rmse_m, log.max_error_m, times[times.size() / 2], times[times.size() * 99 / 100]);
+}
+INSTANTIATE_TEST_SUITE_P(UavTracker, CircleTracking,
+                         ::testing::Values(LinearizationPoint::kPreviousPrediction,
+                                           LinearizationPoint::kReference));
+
+// Feed-forward of the measured wind (through Δd, header of uav_tracker.hpp) must help: the
+// same gusts, once measured (0.2 m/s noise) and once not, on the same seed. Measured: RMSE
+// 0.30 m vs 0.37 m without; 0.95 demands a clear gain, not the exact figure.
+TEST(UavTracker, MeasuredWindFeedForwardReducesTrackingError) {
+  const HelixReference ref = circle_150m();
+  Scenario sc = gusty(3);
+  sc.initial = state_on(ref.at(0.0));
+  const Log with_ff = run(UavTrackerOptions{}, ref, sc);
+  sc.measure_wind = false;
+  const Log without_ff = run(UavTrackerOptions{}, ref, sc);
+  EXPECT_LT(with_ff.rmse_m, 0.95 * without_ff.rmse_m);
+  std::printf("feed-forward: RMSE %.3f m with, %.3f m without\n", with_ff.rmse_m,
+              without_ff.rmse_m);
 }
 
 TEST(UavTracker, TracksClimbingHelixUnderGustyWind) {
@@ -417,12 +408,53 @@ TEST(UavTracker, KeepsTerrainClearanceOverAHill) {
   sc.terrain = &hill;
   sc.initial = state_on(ref.at(0.0));
   const Log log = run(UavTrackerOptions{}, ref, sc);
-  // h_safe = 20 m: the linearized soft constraint with the robust margin keeps the flown
-  // clearance above h_safe minus the linearization error of a curved hill (a few metres).
-  EXPECT_GT(log.min_terrain_clearance_m, 15.0);
+  // The hill needs a 30 m climb (to 110 + 20 m); its steepest slope (1.2) would ask for 12 m/s
+  // of climb at 10 m/s, and the 4 s horizon sees it only 40 m ahead. At w_max = 3 m/s the plan
+  // cannot keep the full h_safe = 20 m and must say so: the terrain slack reports the shortfall.
+  // The flown clearance may fall short of h_safe only by what was reported, plus 1 m for the
+  // truth's model mismatch (τ_w) and the linearization of the curved hill between re-plans.
+  const double h_safe = UavTrackerOptions{}.terrain_clearance_m;
+  EXPECT_GT(log.min_terrain_clearance_m, h_safe - log.max_terrain_slack_m - 1.0);
+  EXPECT_GT(log.min_terrain_clearance_m, 10.0);  // and the UAV is never near the ground
   expect_limits_held(log);
   std::printf("terrain: min clearance %.2f m, max slack %.3f m\n", log.min_terrain_clearance_m,
               log.max_slack_m);
+}
+
+// The tracker's prediction must agree with the vehicle model it linearizes: replaying the
+// planned moves u_j = u_{k−1} + Σ Δu through the nonlinear Euler step (eq. 4) at Δt_p with the
+// measured wind reproduces the predicted positions. Truth = model here (no mismatch), so the
+// differences are the velocity form's own approximations: the measured Δs_k is the increment
+// over the LAST 0.1 s (its heading lags by ω·Δt_p/2 ≈ 0.003 rad, ≈ 3 mm per step, ≈ 0.13 m
+// over 40 steps) and the neglected second-order terms (≈ v·Δt_p·Δψ²/2 per step, ≈ 0.02 m).
+// 0.3 m at 4 s (40 m flown) is several times that; a wrong sign or a missing wind term in the
+// assembly would err by metres.
+TEST(UavTracker, PredictionAgreesWithNonlinearEulerRollout) {
+  const HelixReference ref = circle_150m();
+  UavTrackerOptions o;
+  UavTracker tracker(o);
+  State s = state_on(ref.at(0.0));
+  const Vec3 wind(1.5, -1.0, 0.2);
+  double max_diff = 0.0;
+  for (int k = 0; k <= 300; ++k) {
+    const double t = k * kControlPeriod;
+    const UavTrackerResult& r = tracker.step(t, s, wind, ref, TrackerEnvironment{});
+    if (k >= 100 && k % 50 == 0) {
+      const IncrementalMpcResult& m = tracker.mpc().last_result();
+      Input u = tracker.mpc().data().previous_input;
+      State x = s;
+      for (int j = 0; j < o.prediction_horizon; ++j) {
+        if (j < o.control_horizon) u += m.moves.segment<3>(3 * j);
+        x = vehicle::euler_step(x, u, wind, o.vehicle, o.prediction_step_s);
+        max_diff = std::max(max_diff, (x.head<3>() - r.predicted_positions_m.col(j)).norm());
+      }
+    }
+    for (int i = 0; i < kSubsteps; ++i) {
+      s = vehicle::rk4_step(s, r.command, wind, o.vehicle, kControlPeriod / kSubsteps);
+    }
+  }
+  EXPECT_LT(max_diff, 0.3);
+  std::printf("prediction vs Euler rollout: max %.3f m\n", max_diff);
 }
 
 TEST(UavTrackerOptionsCheck, RejectsBadOptionsNamingTheField) {
