@@ -14,7 +14,7 @@
 
 #include <Eigen/Dense>
 
-#include "ipopt_qp_reference.hpp"
+#include "qp/ipopt_reference.hpp"
 #include "qp/qp_solver.hpp"
 
 namespace ridgeline::qp {
@@ -262,7 +262,7 @@ void check_random_feasible(double tolerance, double z_tolerance_floor, bool chec
     const QpResult& r = solver.solve(g.problem);
     EXPECT_EQ(r.status, QpStatus::kSolved) << to_string(r.status);
     if (r.status != QpStatus::kSolved) continue;
-    const testing::IpoptQpSolution ref = testing::solve_with_ipopt(g.problem);
+    const IpoptQpSolution ref = solve_with_ipopt(g.problem);
     const double obj_scale = std::max(1.0, std::abs(g.objective_star));
     // The constructed optimum is exact and is the primary reference. Ipopt corroborates it
     // where it converges to it; on instances violating LICQ (duplicated equality rows, more

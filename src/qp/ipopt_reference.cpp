@@ -1,35 +1,15 @@
-// Ipopt as an independent reference solver for ridgeline::qp::QpProblem (tests and benchmarks).
-//
-// The QP is handed to Ipopt through its TNLP interface as a general NLP with constant
-// Hessian H (lower triangle, dense), constant dense Jacobian [G; A], variable bounds lb ≤ z ≤ ub
-// and constraint bounds lg ≤ Gz ≤ ug, b ≤ Az ≤ b. Ipopt runs with tol 1e-10, adaptive μ and
-// the "constant" hints, so its answer is accurate to well below the tests' 1e-6 tolerances.
-// Header-only because every *_test.cpp is its own program.
-#pragma once
+#include "qp/ipopt_reference.hpp"
 
 #include <coin/IpIpoptApplication.hpp>
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
-#include <Eigen/Core>
-
-#include "qp/qp_solver.hpp"
-
-namespace ridgeline::qp::testing {
-
-struct IpoptQpSolution {
-  Ipopt::ApplicationReturnStatus status = Ipopt::Internal_Error;
-  Eigen::VectorXd z;
-  double objective = 0.0;
-  int iterations = 0;
-
-  bool solved() const {
-    return status == Ipopt::Solve_Succeeded || status == Ipopt::Solved_To_Acceptable_Level;
-  }
-};
+namespace ridgeline::qp {
+namespace {
 
 class IpoptQp : public Ipopt::TNLP {
  public:
@@ -154,11 +134,12 @@ class IpoptQp : public Ipopt::TNLP {
   double objective_ = 0.0;
 };
 
-/// Solves `problem` with Ipopt (tol 1e-10, constant-derivative hints, silent).
-inline IpoptQpSolution solve_with_ipopt(const QpProblem& problem) {
+}  // namespace
+
+IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance) {
   Ipopt::SmartPtr<IpoptQp> nlp = new IpoptQp(problem);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-  app->Options()->SetNumericValue("tol", 1e-10);
+  app->Options()->SetNumericValue("tol", tolerance);
   app->Options()->SetStringValue("hessian_constant", "yes");
   app->Options()->SetStringValue("jac_c_constant", "yes");
   app->Options()->SetStringValue("jac_d_constant", "yes");
@@ -168,7 +149,10 @@ inline IpoptQpSolution solve_with_ipopt(const QpProblem& problem) {
   app->Options()->SetIntegerValue("max_iter", 3000);
   IpoptQpSolution out;
   if (app->Initialize() != Ipopt::Solve_Succeeded) return out;
+  const auto start = std::chrono::steady_clock::now();
   out.status = app->OptimizeTNLP(nlp);
+  out.solve_time_us =
+      std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
   out.z = nlp->z();
   out.objective = nlp->objective();
   if (Ipopt::SmartPtr<Ipopt::SolveStatistics> stats = app->Statistics(); IsValid(stats)) {
@@ -177,4 +161,4 @@ inline IpoptQpSolution solve_with_ipopt(const QpProblem& problem) {
   return out;
 }
 
-}  // namespace ridgeline::qp::testing
+}  // namespace ridgeline::qp
