@@ -7,6 +7,7 @@
 #include <iostream>
 #include <memory>
 
+#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "io/dem_file.hpp"
@@ -29,8 +30,7 @@ struct MakeDemArgs {
 void run_make_dem(const MakeDemArgs& args) {
   if (!(args.cell_m > 0.0)) throw InputError("--cell", "must be positive");
   if (!(args.noise_m >= 0.0)) throw InputError("--noise", "must not be negative");
-  const io::LoadedScenario loaded =
-      args.scenario.empty() ? io::load_default_scenario() : io::load_scenario_file(args.scenario);
+  const io::LoadedScenario loaded = load_scenario_argument(args.scenario);
   const sim::Area& area = loaded.scenario.area;
   std::shared_ptr<const world::Terrain> terrain = loaded.terrain;
   if (args.random_peaks > 0) {

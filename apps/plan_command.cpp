@@ -2,11 +2,10 @@
 // DIR/plan.json after dense validation; an invalid plan writes nothing and exits non-zero.
 #include <iostream>
 
+#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
 #include "io/plan_file.hpp"
-#include "io/scenario_file.hpp"
-#include "sim/mission_problem.hpp"
 
 namespace ridgeline::apps {
 
@@ -20,21 +19,12 @@ void register_plan_command(CLI::App& app) {
   cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   cmd->add_option("--out", args->out, "Output folder")->capture_default_str();
   cmd->callback([args] {
-    const io::LoadedScenario loaded = args->scenario.empty()
-                                          ? io::load_default_scenario()
-                                          : io::load_scenario_file(args->scenario);
-    const planning::GlobalPlan plan = planning::plan_mission(
-        sim::make_planning_problem(loaded.scenario, loaded.terrain),
-        sim::make_planner_options(loaded.scenario));
-    if (plan.status != planning::GlobalPlanStatus::kPlanned) {
-      std::cerr << "error: planning failed (" << planning::to_string(plan.status)
-                << "): " << plan.message << '\n';
-      set_exit_code(3);
-      return;
-    }
-    std::cout << io::plan_summary_text(plan, loaded.scenario);
+    const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
+    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
+    if (!plan) return;
+    std::cout << io::plan_summary_text(*plan, loaded.scenario);
     const std::filesystem::path out = std::filesystem::path(args->out) / "plan.json";
-    io::write_file_atomically(out, io::plan_to_json(plan, loaded.scenario).dump() + "\n");
+    io::write_file_atomically(out, io::plan_to_json(*plan, loaded.scenario).dump() + "\n");
     std::cout << "wrote " << out.string() << '\n';
   });
 }

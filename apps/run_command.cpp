@@ -4,12 +4,11 @@
 // (simulator, agents, metrics) is the next stage of this command.
 #include <iostream>
 
+#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
 #include "io/plan_file.hpp"
-#include "io/scenario_file.hpp"
 #include "io/scenario_summary.hpp"
-#include "sim/mission_problem.hpp"
 
 namespace ridgeline::apps {
 
@@ -23,22 +22,13 @@ void register_run_command(CLI::App& app) {
   run->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   run->add_option("--out", args->out, "Output folder")->capture_default_str();
   run->callback([args] {
-    const io::LoadedScenario loaded = args->scenario.empty()
-                                          ? io::load_default_scenario()
-                                          : io::load_scenario_file(args->scenario);
+    const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     nlohmann::json summary = io::summarize(loaded);
     std::cout << io::summary_text(summary);
-    const planning::GlobalPlan plan = planning::plan_mission(
-        sim::make_planning_problem(loaded.scenario, loaded.terrain),
-        sim::make_planner_options(loaded.scenario));
-    if (plan.status != planning::GlobalPlanStatus::kPlanned) {
-      std::cerr << "error: planning failed (" << planning::to_string(plan.status)
-                << "): " << plan.message << '\n';
-      set_exit_code(3);
-      return;
-    }
-    std::cout << io::plan_summary_text(plan, loaded.scenario);
-    const nlohmann::json plan_json = io::plan_to_json(plan, loaded.scenario);
+    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
+    if (!plan) return;
+    std::cout << io::plan_summary_text(*plan, loaded.scenario);
+    const nlohmann::json plan_json = io::plan_to_json(*plan, loaded.scenario);
     summary["plan"] = {{"status", plan_json["status"]},
                        {"solve_time_s", plan_json["solve_time_s"]},
                        {"cost", plan_json["cost"]},
