@@ -1,0 +1,158 @@
+#include "sim/mpc_benchmark.hpp"
+
+#include <time.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "mpc/reference.hpp"
+#include "mpc/uav_tracker.hpp"
+#include "qp/ipopt_reference.hpp"
+#include "qp/qp_solver.hpp"
+#include "world/terrain.hpp"
+
+namespace ridgeline::sim {
+namespace {
+
+double thread_cpu_us() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
+}
+
+nlohmann::json to_json(const Percentiles& p) {
+  return {{"median", p.median}, {"p90", p.p90}, {"p99", p.p99}, {"max", p.max}};
+}
+
+}  // namespace
+
+Percentiles percentiles(std::vector<double> v) {
+  Percentiles p;
+  if (v.empty()) return p;
+  std::sort(v.begin(), v.end());
+  auto at = [&](double q) {
+    const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+    return v[std::clamp<std::size_t>(rank, 1, v.size()) - 1];
+  };
+  p.median = at(0.5);
+  p.p90 = at(0.9);
+  p.p99 = at(0.99);
+  p.max = v.back();
+  return p;
+}
+
+nlohmann::json MpcBenchmarkReport::to_json() const {
+  return {{"steps", steps},
+          {"mpc_step_us", sim::to_json(step_us)},
+          {"mpc_step_cpu_us", sim::to_json(step_cpu_us)},
+          {"qp_solve_us", sim::to_json(qp_us)},
+          {"qp_iterations", sim::to_json(qp_iterations)},
+          {"not_solved", not_solved},
+          {"max_slack_m", max_slack_m},
+          {"soft_rows_mean", soft_rows_mean},
+          {"ipopt_compared", ipopt_compared},
+          {"ipopt_qp_us_median", ipopt_qp_us_median},
+          {"ours_on_compared_qp_us_median", ours_on_compared_us_median},
+          {"ipopt_over_ours_ratio", ipopt_over_ours_ratio},
+          {"max_rel_objective_gap", max_rel_objective_gap}};
+}
+
+MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
+  mpc::UavTrackerOptions tracker_options;  // Np 40 × 0.1 s, Nc 10, 50 Hz
+  mpc::UavTracker tracker(tracker_options);
+  mpc::HelixReference::Config circle;
+  circle.centre_m = Vec3(0.0, 0.0, 120.0);
+  circle.radius_m = 150.0;
+  circle.speed_m_s = 10.0;
+  const mpc::HelixReference reference(circle);
+
+  std::vector<world::Threat> threats(3);
+  const double phase_s[3] = {9.0, 36.0, 63.0};
+  for (int i = 0; i < 3; ++i) {
+    threats[i].name = fmt::format("threat{}", i);
+    threats[i].centre_m = reference.at(phase_s[i]).position_m + Vec3(0.0, 0.0, 10.0 * i);
+    threats[i].velocity_m_s = Vec3(1.0, -1.0, 0.0);
+    threats[i].radius_m = 25.0;
+  }
+  auto neighbour = [&](int id, double lead_s, double offset_m) {
+    mpc::NeighbourPrediction nb;
+    nb.uav_id = id;
+    nb.step_s = 0.5;
+    for (int i = 0; i < 400; ++i) {
+      const mpc::ReferencePoint r = reference.at(i * 0.5 + lead_s);
+      const Vec3 left(-std::sin(r.heading_rad), std::cos(r.heading_rad), 0.0);
+      nb.positions_m.push_back(r.position_m + offset_m * left);
+    }
+    return nb;
+  };
+  const std::vector<mpc::NeighbourPrediction> neighbours{neighbour(1, 2.5, 15.0),
+                                                         neighbour(2, -2.5, -15.0)};
+  // Hills under the circle, 60–90 m below the flight: inside the terrain rows' activation.
+  world::PeakTerrainConfig hills;
+  hills.peaks = {{150, 0, 80, 120, 120}, {-100, 120, 80, 120, 120}, {0, -150, 80, 120, 120}};
+  const world::PeakTerrain terrain(hills);
+  const mpc::TrackerEnvironment environment{threats, neighbours, &terrain};
+
+  vehicle::VehicleParams truth = tracker_options.vehicle;  // mismatched lags
+  truth.tau_v_s *= 1.3;
+  truth.tau_omega_s *= 0.75;
+  const Vec3 wind(1.4, 1.4, 0.0);
+  const mpc::ReferencePoint r0 = reference.at(0.0);
+  vehicle::State state;
+  state << r0.position_m, r0.heading_rad, r0.speed_m_s, r0.turn_rate_rad_s, 0.0;
+
+  MpcBenchmarkReport report;
+  std::vector<double> step_us, cpu_us, qp_us, iterations, ours_compared, ipopt_us;
+  const int truth_substeps = 4;  // 200 Hz truth
+  const double dt_truth = tracker_options.control_period_s / truth_substeps;
+  double t = 0.0;
+  double rows = 0.0;
+  for (int k = 0; k < options.steps; ++k) {
+    const double cpu_start = thread_cpu_us();
+    const auto start = std::chrono::steady_clock::now();
+    const mpc::UavTrackerResult& r = tracker.step(t, state, wind, reference, environment);
+    step_us.push_back(
+        std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count());
+    cpu_us.push_back(thread_cpu_us() - cpu_start);
+    qp_us.push_back(r.qp_time_us);
+    iterations.push_back(r.qp_iterations);
+    rows += r.soft_rows[0] + r.soft_rows[1] + r.soft_rows[2];
+    report.max_slack_m = std::max(report.max_slack_m, r.max_slack_m());
+    if (r.qp_status != qp::QpStatus::kSolved) ++report.not_solved;
+
+    if (options.ipopt_every > 0 && k % options.ipopt_every == 0 &&
+        r.qp_status == qp::QpStatus::kSolved) {
+      const qp::IpoptQpSolution ipopt = qp::solve_with_ipopt(tracker.mpc().qp_problem(), 1e-9);
+      if (ipopt.solved()) {
+        ++report.ipopt_compared;
+        ipopt_us.push_back(ipopt.solve_time_us);
+        ours_compared.push_back(r.qp_time_us);
+        const double ours = tracker.mpc().qp_result().objective;
+        report.max_rel_objective_gap =
+            std::max(report.max_rel_objective_gap,
+                     std::abs(ours - ipopt.objective) / std::max(1.0, std::abs(ipopt.objective)));
+      }
+    }
+    for (int i = 0; i < truth_substeps; ++i)
+      state = vehicle::rk4_step(state, r.command, wind, truth, dt_truth);
+    t += tracker_options.control_period_s;
+  }
+  report.steps = options.steps;
+  report.step_us = percentiles(step_us);
+  report.step_cpu_us = percentiles(cpu_us);
+  report.qp_us = percentiles(qp_us);
+  report.qp_iterations = percentiles(iterations);
+  report.soft_rows_mean = options.steps > 0 ? rows / options.steps : 0.0;
+  if (report.ipopt_compared > 0) {
+    report.ipopt_qp_us_median = percentiles(ipopt_us).median;
+    report.ours_on_compared_us_median = percentiles(ours_compared).median;
+    report.ipopt_over_ours_ratio = report.ipopt_qp_us_median / report.ours_on_compared_us_median;
+  }
+  return report;
+}
+
+}  // namespace ridgeline::sim

@@ -1,0 +1,48 @@
+// The tracker's workload for `ridgeline bench mpc` and bench/mpc_bench.cpp: one UAV flies a
+// 150 m circle in a 2 m/s wind for `steps` control periods of the closed loop (truth by RK4
+// with mismatched lags, outside the timed region), with DESIGN §3's sizes (Np = 40 × 0.1 s,
+// Nc = 10) and every kind of soft row active: three slowly moving threat spheres on and beside
+// the circle, two neighbours flying it 25 m ahead and behind at a 15 m offset, and hills under
+// it within the terrain rows' activation distance.
+//
+// Each step is timed whole (linearize, build, solve). Every `ipopt_every`-th QP is also
+// solved by Ipopt, outside the timed region, for the speed ratio and an accuracy check.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+namespace ridgeline::sim {
+
+struct MpcBenchmarkOptions {
+  int steps = 3000;       ///< control steps (60 s at 50 Hz)
+  int ipopt_every = 10;   ///< compare with Ipopt on every n-th QP (0: never)
+};
+
+struct Percentiles {
+  double median = 0.0, p90 = 0.0, p99 = 0.0, max = 0.0;
+};
+
+struct MpcBenchmarkReport {
+  int steps = 0;
+  Percentiles step_us;          ///< whole MPC step, wall clock
+  Percentiles step_cpu_us;      ///< the same in thread CPU time (robust to preemption)
+  Percentiles qp_us;            ///< our QP solve inside the step
+  Percentiles qp_iterations;
+  int not_solved = 0;           ///< steps whose QP did not reach kSolved
+  double max_slack_m = 0.0;     ///< largest soft-constraint violation the plans accepted
+  double soft_rows_mean = 0.0;
+  int ipopt_compared = 0;
+  double ipopt_qp_us_median = 0.0;       ///< Ipopt on the same QPs
+  double ours_on_compared_us_median = 0.0;
+  double ipopt_over_ours_ratio = 0.0;    ///< ipopt median / ours median on the compared QPs
+  double max_rel_objective_gap = 0.0;    ///< |J_ours − J_ipopt| / max(1, |J_ipopt|)
+
+  nlohmann::json to_json() const;
+};
+
+MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options = {});
+
+/// Percentiles of a sample (sorted copy; nearest-rank).
+Percentiles percentiles(std::vector<double> values);
+
+}  // namespace ridgeline::sim
