@@ -50,8 +50,7 @@ bool IncrementalMpcData::add_soft_row(int step, const Eigen::Ref<const VecX>& a,
   return true;
 }
 
-IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
-                               const IncrementalMpcOptions& options)
+IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const IncrementalMpcOptions& options)
     : dims_(dims), options_(options), solver_(options.qp_settings) {
   require(dims.state_dim >= 1, "dims.state_dim", "must be >= 1");
   require(dims.input_dim >= 1, "dims.input_dim", "must be >= 1");
@@ -78,6 +77,24 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
           "needs input_dim entries");
   require((options.move_weight.array() > 0.0).all() && options.move_weight.allFinite(),
           "options.move_weight", "entries must be finite and > 0");
+  const auto check_limits = [](const VecX& lo, const VecX& hi, int dim, const char* lo_name,
+                               const char* hi_name) {
+    require(lo.size() == 0 || lo.size() == dim, lo_name,
+            "needs " + std::to_string(dim) + " entries or none");
+    require(hi.size() == 0 || hi.size() == dim, hi_name,
+            "needs " + std::to_string(dim) + " entries or none");
+    require(!lo.hasNaN() && !hi.hasNaN(), std::string(lo_name) + "/" + hi_name, "has NaN");
+    if (lo.size() == dim && hi.size() == dim) {
+      require((lo.array() <= hi.array()).all(), std::string(lo_name) + "/" + hi_name,
+              "lower limit above upper limit");
+    }
+  };
+  check_limits(options.input_min, options.input_max, dims.input_dim, "options.input_min",
+               "options.input_max");
+  check_limits(options.move_min, options.move_max, dims.input_dim, "options.move_min",
+               "options.move_max");
+  check_limits(options.output_min, options.output_max, dims.output_dim, "options.output_min",
+               "options.output_max");
   require(std::isfinite(options.slack_linear_weight) && options.slack_linear_weight > 0.0,
           "options.slack_linear_weight", "must be finite and > 0");
   require(std::isfinite(options.slack_quadratic_weight) && options.slack_quadratic_weight > 0.0,
@@ -111,6 +128,12 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
   data_.move_max = MatX::Constant(nu_, nc_, qp::kInfinity);
   data_.output_min = MatX::Constant(ny_, np_, -qp::kInfinity);
   data_.output_max = MatX::Constant(ny_, np_, qp::kInfinity);
+  if (options.input_min.size() > 0) data_.input_min.colwise() = options.input_min;
+  if (options.input_max.size() > 0) data_.input_max.colwise() = options.input_max;
+  if (options.move_min.size() > 0) data_.move_min.colwise() = options.move_min;
+  if (options.move_max.size() > 0) data_.move_max.colwise() = options.move_max;
+  if (options.output_min.size() > 0) data_.output_min.colwise() = options.output_min;
+  if (options.output_max.size() > 0) data_.output_max.colwise() = options.output_max;
   data_.soft_step.assign(cap, 0);
   data_.soft_group.assign(cap, 0);
   data_.soft_normal = MatX::Zero(ny_, cap);
@@ -125,7 +148,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims,
   qdiag_ = VecX::Zero(np_ * ny_);
   for (int j = 0; j < np_; ++j) {
     const bool terminal = j == np_ - 1 && options.terminal_output_weight.size() == ny_;
-    qdiag_.segment(j * ny_, ny_) = terminal ? options.terminal_output_weight : options.output_weight;
+    qdiag_.segment(j * ny_, ny_) =
+        terminal ? options.terminal_output_weight : options.output_weight;
   }
   y_ = VecX::Zero(ny_);
   tmp_ = VecX::Zero(ns_);
@@ -201,8 +225,8 @@ std::string_view IncrementalMpc::check_data() const {
   }
   const int cap = dims_.soft_row_capacity;
   if (static_cast<int>(d.soft_step.size()) != cap || static_cast<int>(d.soft_group.size()) != cap ||
-      !has_shape(d.soft_normal, ny_, cap) || d.soft_bound.size() != cap ||
-      d.soft_row_count < 0 || d.soft_row_count > cap) {
+      !has_shape(d.soft_normal, ny_, cap) || d.soft_bound.size() != cap || d.soft_row_count < 0 ||
+      d.soft_row_count > cap) {
     return "soft rows (storage)";
   }
   for (int r = 0; r < d.soft_row_count; ++r) {
@@ -393,8 +417,8 @@ const IncrementalMpcResult& IncrementalMpc::solve() {
     result_.qp_status = qp::QpStatus::kInvalidInput;
     result_.moves.setZero();
     result_.first_move.setZero();
-    result_.first_input = data_.previous_input.size() == nu_ ? data_.previous_input
-                                                             : VecX::Zero(nu_);
+    result_.first_input =
+        data_.previous_input.size() == nu_ ? data_.previous_input : VecX::Zero(nu_);
     result_.slack.setZero();
     result_.max_slack = 0.0;
     result_.qp_iterations = 0;

@@ -40,7 +40,8 @@
 //   soft   aᵀ y_{k+j+1} + σ_g ≥ b,  σ_g ≥ 0             (one row per call of add_soft_row)
 // The slack σ_g is shared by all soft rows of group g (a group is a kind of constraint, e.g.
 // "threats"), which keeps the QP small; its exact-penalty weight ρ₁ makes σ = 0 whenever the
-// rows are satisfiable, and σ_g reports the largest violation the solution accepts in that
+// rows are satisfiable (provided ρ₁ exceeds the sum of the group's row multipliers, so scale it
+// with the tracking cost), and σ_g reports the largest violation the solution accepts in that
 // group. With soft rows only (no hard output rows) and consistent input/move limits the QP
 // is always feasible.
 //
@@ -52,10 +53,9 @@
 // survives the small changes of the active set of soft rows from step to step.
 #pragma once
 
+#include <Eigen/Core>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/types.hpp"
 #include "qp/qp_solver.hpp"
@@ -74,14 +74,19 @@ struct IncrementalMpcDims {
 
 /// Tuning with documented defaults. Weights are the diagonals of Q, Q_N and R (eq. 10).
 struct IncrementalMpcOptions {
-  int prediction_horizon = 40;        ///< Np ≥ 1
-  int control_horizon = 10;           ///< Nc, 1 ≤ Nc ≤ Np
-  VecX output_weight;                 ///< diag Q, n_y entries ≥ 0
-  VecX terminal_output_weight;        ///< diag Q_N at j = Np, n_y entries ≥ 0; empty: Q
-  VecX move_weight;                   ///< diag R, n_u entries > 0 (keeps H positive definite)
-  bool hard_output_limits = false;    ///< add the rows y_min ≤ y ≤ y_max of eq. 11
-  double slack_linear_weight = 1e4;   ///< ρ₁ > 0, per unit of slack (exact penalty)
-  double slack_quadratic_weight = 1e2;///< ρ₂ > 0, per unit² of slack
+  int prediction_horizon = 40;  ///< Np ≥ 1
+  int control_horizon = 10;     ///< Nc, 1 ≤ Nc ≤ Np
+  VecX output_weight;           ///< diag Q, n_y entries ≥ 0
+  VecX terminal_output_weight;  ///< diag Q_N at j = Np, n_y entries ≥ 0; empty: Q
+  VecX move_weight;             ///< diag R, n_u entries > 0 (keeps H positive definite)
+  /// Constant limits of eq. 11 (n_u or n_y entries; empty: unbounded). They initialize the
+  /// per-step limits of IncrementalMpcData, which a caller may overwrite step by step.
+  VecX input_min, input_max;            ///< u_min, u_max
+  VecX move_min, move_max;              ///< Δu_min, Δu_max
+  VecX output_min, output_max;          ///< y_min, y_max (used when hard_output_limits)
+  bool hard_output_limits = false;      ///< add the rows y_min ≤ y ≤ y_max of eq. 11
+  double slack_linear_weight = 1e4;     ///< ρ₁ > 0, per unit of slack (exact penalty)
+  double slack_quadratic_weight = 1e2;  ///< ρ₂ > 0, per unit² of slack
   qp::QpSettings qp_settings;
 };
 
@@ -90,10 +95,10 @@ struct IncrementalMpcOptions {
 /// plant, the transition s_{k+j} → s_{k+j+1}; for outputs and references, y_{k+j+1}; for
 /// input and move limits, move j (u_{k+j}, Δu_{k+j}).
 struct IncrementalMpcData {
-  std::vector<MatX> A;     ///< Np matrices n_s×n_s (A_j)
-  std::vector<MatX> B;     ///< Np matrices n_s×n_u (B_j)
-  std::vector<MatX> E;     ///< Np matrices n_s×n_d (E_j)
-  MatX C;                  ///< n_y×n_s
+  std::vector<MatX> A;  ///< Np matrices n_s×n_s (A_j)
+  std::vector<MatX> B;  ///< Np matrices n_s×n_u (B_j)
+  std::vector<MatX> E;  ///< Np matrices n_s×n_d (E_j)
+  MatX C;               ///< n_y×n_s
 
   VecX delta_state;        ///< Δs_k = s_k − s_{k−1} (measured increment)
   VecX output;             ///< y_k (measured)
@@ -175,6 +180,8 @@ class IncrementalMpc {
   const qp::QpProblem& qp_problem() const { return qp_; }
   /// The QP solver's full report of the last solve (residuals, gap, multipliers).
   const qp::QpResult& qp_result() const { return solver_.last_result(); }
+  /// The result of the last solve().
+  const IncrementalMpcResult& last_result() const { return result_; }
 
  private:
   std::string_view check_data() const;

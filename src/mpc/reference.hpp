@@ -65,7 +65,7 @@ class HelixReference : public ReferenceTrajectory {
     double radius_m = 150.0;       ///< > 0
     double speed_m_s = 10.0;       ///< horizontal speed, > 0
     double climb_rate_m_s = 0.0;
-    double phase0_rad = 0.0;       ///< φ0: position angle at t0
+    double phase0_rad = 0.0;  ///< φ0: position angle at t0
     bool turn_left = true;
     double t0_s = 0.0;
   };

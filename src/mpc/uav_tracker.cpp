@@ -75,8 +75,8 @@ void validate(const UavTrackerOptions& o) {
   require(positive(v.max_climb_rate_m_s), "vehicle.max_climb_rate_m_s", "must be finite and > 0");
   require(positive(v.max_pitch_rad) && v.max_pitch_rad < 0.5 * kPi, "vehicle.max_pitch_rad",
           "must be in (0, pi/2)");
-  require(positive(v.tau_v_s) && positive(v.tau_omega_s) && positive(v.tau_w_s),
-          "vehicle.tau_*_s", "time constants must be finite and > 0");
+  require(positive(v.tau_v_s) && positive(v.tau_omega_s) && positive(v.tau_w_s), "vehicle.tau_*_s",
+          "time constants must be finite and > 0");
   require(positive(o.control_period_s), "control_period_s", "must be finite and > 0");
   require(positive(o.prediction_step_s), "prediction_step_s", "must be finite and > 0");
   require(o.prediction_horizon >= 1, "prediction_horizon", "must be >= 1");
@@ -163,9 +163,9 @@ void UavTracker::push_history(const HistoryEntry& entry) {
   history_size_ = std::min(history_size_ + 1, cap);
 }
 
-bool UavTracker::increment_from_history(double t_s, const vehicle::State& state,
-                                        const Vec3& wind, vehicle::State& delta_state,
-                                        Vec3& delta_wind, vehicle::Input& mean_command) const {
+bool UavTracker::increment_from_history(double t_s, const vehicle::State& state, const Vec3& wind,
+                                        vehicle::State& delta_state, Vec3& delta_wind,
+                                        vehicle::Input& mean_command) const {
   const int cap = static_cast<int>(history_.size());
   const auto entry = [&](int age) -> const HistoryEntry& {
     return history_[(history_head_ - age + cap) % cap];
@@ -266,9 +266,9 @@ void UavTracker::set_limits(const vehicle::State& state) {
   for (int i = 0; i < nc_; ++i) {
     const double v_nominal = i == 0 ? state[kV] : nominal_states_(kV, i);
     const double speed = std::max(v_nominal, p.min_speed_m_s());
-    const double max_turn = p.max_turn_rate_rad_s(speed);                                 // eq. 3
+    const double max_turn = p.max_turn_rate_rad_s(speed);  // eq. 3
     const double max_climb = std::min(p.max_climb_rate_m_s, speed * std::tan(p.max_pitch_rad));
-    d.input_min(kSpeedCmd, i) = p.min_speed_m_s();                                         // eq. 2
+    d.input_min(kSpeedCmd, i) = p.min_speed_m_s();  // eq. 2
     d.input_max(kSpeedCmd, i) = p.max_speed_m_s();
     d.input_min(kTurnRateCmd, i) = -max_turn;
     d.input_max(kTurnRateCmd, i) = max_turn;
@@ -393,8 +393,8 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
 
   if (!have_previous_command_) {
     // Without a command history, start from what the vehicle is doing (no jump).
-    previous_command_ = vehicle::clamp_to_limits(
-        vehicle::Input(state[kV], state[kOmega], state[kW]), state, p);
+    previous_command_ =
+        vehicle::clamp_to_limits(vehicle::Input(state[kV], state[kOmega], state[kW]), state, p);
     have_previous_command_ = true;
   }
   const vehicle::Input u_prev = previous_command_;
@@ -419,8 +419,7 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   // 2–4. Nominal trajectory, Jacobians, wind feed-forward, reference.
   build_nominal(t_s, state, reference);
   for (int j = 0; j < np_; ++j) {
-    const vehicle::Jacobians J =
-        vehicle::discrete_jacobians(nominal_states_.col(j), p, dt);
+    const vehicle::Jacobians J = vehicle::discrete_jacobians(nominal_states_.col(j), p, dt);
     d.A[j] = J.A;
     d.B[j] = J.B;
     d.E[j] = J.E;
@@ -468,8 +467,7 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   have_previous_prediction_ = true;
   push_history(HistoryEntry{t_s, state, measured_wind_m_s, u_cmd});
   previous_command_ = u_cmd;
-  result_.step_time_us =
-      std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+  result_.step_time_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
   return result_;
 }
 

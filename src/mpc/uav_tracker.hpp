@@ -26,8 +26,9 @@
 //     |w_c| ≤ min(w_max, max(v̄, v_min)·tan θ_max) (the pitch limit). Rate limits (per second)
 //     become |Δu_0| ≤ rate·T_ctrl for the move applied now (so consecutive 50 Hz commands obey
 //     them) and |Δu_i| ≤ rate·Δt_p later. If the previous command lies outside a limit that
-//     the rate limit cannot reach in time, the limit is relaxed to the nearest reachable value
-//     (flagged), so the hard part of the QP is always feasible.
+//     the rate limit cannot reach in time, that move's limit is relaxed to the middle of what
+//     is reachable (flagged limits_relaxed), so the hard part of the QP is always feasible and
+//     keeps a strict interior.
 //  6. Soft rows (DESIGN §3), linearized about the nominal positions p̄_j (the previous
 //     prediction, else the reference), each with a slack shared by its kind:
 //       threat    n_jᵀ(p_j − c_j) ≥ R + r_safe + m_j,  c_j = c_0 + v_T(t_j − t_appear),
@@ -38,13 +39,16 @@
 //     The robust margin m_j = min(ē_W·(j+1)Δt_p, m_max) is the position error a wind error
 //     bounded by ē_W accumulates by t_j. A row is added only while its nominal distance to the
 //     boundary is below activation_distance_m (far constraints cannot be active in 4 s).
-//  7. Solve, apply the first move, clamp the command into the limits (flagged if that changed
-//     it by more than the solver tolerance), keep the prediction for the next linearization
-//     and for broadcasting.
+//  7. Solve and apply the first move: u_k = u_{k−1} + Δu_k, clamped to the rate limit of one
+//     control period and then by vehicle::clamp_to_limits (flagged command_clamped if that
+//     changed it by more than the solver tolerance). If the QP is not solved the previous
+//     command is held (flagged fallback) and the prediction is the free response. The
+//     prediction is kept for the next linearization and for broadcasting.
 //
-// Units: SI, ENU. Not thread-safe (one tracker per UAV). step() does not throw and does not
-// allocate after the first call, unless more threats or neighbours are passed than the
-// capacity (the surplus is dropped and counted).
+// Units: SI, ENU. Not thread-safe (one tracker per UAV). step() does not throw. After warm-up
+// it does not allocate, except when the number of soft rows grows past a block of 16 (the QP
+// is resized, see incremental_mpc.hpp); tests/mpc/uav_tracker_allocation_test.cpp checks it.
+// Threats and neighbours beyond the capacity are dropped and counted in the result.
 #pragma once
 
 #include <algorithm>
@@ -73,30 +77,34 @@ struct NeighbourPrediction {
   Vec3 position_at(double t_s) const;
 };
 
-/// What the nominal trajectory of the linearization follows (step 2 above).
+/// What the nominal trajectory of the linearization follows (step 2 above). Near the
+/// reference both agree to first order. Far from it they do not: the Jacobians rotate with
+/// the heading, so a vehicle 90° off the reference heading is mispredicted by kReference
+/// (in the test that starts 60 m off a line facing away from it, kReference flies off while
+/// kPreviousPrediction converges). Hence the default.
 enum class LinearizationPoint {
-  kReference,           ///< the reference trajectory (DESIGN §3)
+  kReference,           ///< the reference trajectory (the literal reading of DESIGN §3)
   kPreviousPrediction,  ///< the previous step's prediction, the reference beyond it
 };
 
 struct UavTrackerOptions {
-  vehicle::VehicleParams vehicle;     ///< the controller's model and limits
-  double control_period_s = 0.02;     ///< T_ctrl (50 Hz)
-  double prediction_step_s = 0.1;     ///< Δt_p
-  int prediction_horizon = 40;        ///< Np
-  int control_horizon = 10;           ///< Nc
+  vehicle::VehicleParams vehicle;  ///< the controller's model and limits
+  double control_period_s = 0.02;  ///< T_ctrl (50 Hz)
+  double prediction_step_s = 0.1;  ///< Δt_p
+  int prediction_horizon = 40;     ///< Np
+  int control_horizon = 10;        ///< Nc
   LinearizationPoint linearization = LinearizationPoint::kPreviousPrediction;
 
-  double weight_xy_per_m2 = 1.0;      ///< q_xy
-  double weight_z_per_m2 = 1.0;       ///< q_z
+  double weight_xy_per_m2 = 1.0;        ///< q_xy
+  double weight_z_per_m2 = 1.0;         ///< q_z
   double terminal_weight_factor = 1.0;  ///< Q_N = factor·Q
-  double weight_speed_move = 2.0;     ///< R for Δv_c, per (m/s)²
-  double weight_turn_move = 200.0;    ///< R for Δω_c, per (rad/s)²
-  double weight_climb_move = 2.0;     ///< R for Δw_c, per (m/s)²
+  double weight_speed_move = 2.0;       ///< R for Δv_c, per (m/s)²
+  double weight_turn_move = 200.0;      ///< R for Δω_c, per (rad/s)²
+  double weight_climb_move = 2.0;       ///< R for Δw_c, per (m/s)²
 
-  double max_speed_cmd_rate_m_s2 = 4.0;        ///< |v̇_c|
-  double max_turn_cmd_rate_rad_s2 = 1.5;       ///< |ω̇_c|
-  double max_climb_cmd_rate_m_s2 = 4.0;        ///< |ẇ_c|
+  double max_speed_cmd_rate_m_s2 = 4.0;   ///< |v̇_c|
+  double max_turn_cmd_rate_rad_s2 = 1.5;  ///< |ω̇_c|
+  double max_climb_cmd_rate_m_s2 = 4.0;   ///< |ẇ_c|
 
   double threat_margin_m = 5.0;       ///< r_safe
   double separation_m = 10.0;         ///< d_safe
@@ -104,11 +112,15 @@ struct UavTrackerOptions {
   double wind_error_bound_m_s = 0.5;  ///< ē_W, bound on the wind measurement's error
   double max_robust_margin_m = 10.0;  ///< m_max
   double activation_distance_m = 60.0;
-  int max_threats = 4;                ///< capacity; more are dropped and counted
+  int max_threats = 4;  ///< capacity; more are dropped and counted
   int max_neighbours = 4;
 
-  double slack_linear_weight = 1e5;   ///< ρ₁ per metre of violation
-  double slack_quadratic_weight = 1e3;///< ρ₂ per m²
+  /// ρ₁ per metre of violation. The penalty is exact (σ = 0 whenever the rows can be met)
+  /// while ρ₁ exceeds the sum of the multipliers of a kind's rows: a path pushed ~40 m off the
+  /// reference for ~20 steps at q = 1/m² gives Σλ ≈ 2·40·20 = 1.6e3, so 1e4 covers it. 1e5
+  /// was measured to raise the interior point's p99 iteration count from 25 to 43.
+  double slack_linear_weight = 1e4;
+  double slack_quadratic_weight = 1e3;  ///< ρ₂ per m²
   /// Relative KKT tolerance 1e-7: with positions in metres and costs of 1e2–1e5 this is far
   /// below a millimetre, and it spares the interior point the last, ill-conditioned iterations
   /// (at 1e-9 it stalled on some threat-avoidance QPs).
@@ -131,9 +143,9 @@ struct TrackerEnvironment {
 
 struct UavTrackerResult {
   vehicle::Input command = vehicle::Input::Zero();  ///< to send; within every hard limit
-  bool command_clamped = false;  ///< the QP's first input needed clamping (> 1e-6)
-  bool limits_relaxed = false;   ///< an input limit was widened to stay reachable (step 5)
-  bool fallback = false;         ///< QP not solved: previous command held
+  bool command_clamped = false;       ///< the QP's first input needed clamping (> 1e-6)
+  bool limits_relaxed = false;        ///< an input limit was widened to stay reachable (step 5)
+  bool fallback = false;              ///< QP not solved: previous command held
   bool increment_from_model = false;  ///< history too short: Δs_k from the model (step 1)
   qp::QpStatus qp_status = qp::QpStatus::kInvalidInput;
   int qp_iterations = 0;
@@ -205,8 +217,8 @@ class UavTracker {
   double previous_first_time_s_ = 0.0;
   MatX previous_states_;  // 7×Np
 
-  MatX nominal_states_;     // 7×Np: s̄_j at the start of prediction step j
-  MatX nominal_positions_;  // 3×Np: p̄ at t + (j+1)Δt_p
+  MatX nominal_states_;                           // 7×Np: s̄_j at the start of prediction step j
+  MatX nominal_positions_;                        // 3×Np: p̄ at t + (j+1)Δt_p
   std::vector<ReferencePoint> reference_points_;  // r(t + jΔt_p), j = 0..Np
 };
 
