@@ -39,8 +39,8 @@ world::PeakTerrainConfig parse_peak_terrain(YamlMap& m) {
   config.model_error_m = m.get_double("model_error_m", 0.0);
   if (config.model_error_m < 0.0)
     throw InputError(m.path() + ".model_error_m", "must not be negative");
+  // An empty list is a flat terrain at the base elevation.
   const std::vector<YamlValue> peaks = m.required("peaks").as_list();
-  if (peaks.empty()) throw InputError(m.path() + ".peaks", "at least one peak is needed");
   for (const YamlValue& item : peaks) {
     YamlMap p = item.as_map();
     world::Peak peak;
