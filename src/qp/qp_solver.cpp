@@ -189,6 +189,18 @@ struct QpSolver::Workspace {
   double reg_primal = 0.0, reg_dual = 0.0;
   bool refine = false;  // whether the regularization is large enough to need refinement
 
+  // Polishing (see polish()): active rows C (k of them, first rows of p_C), their sources and
+  // the equality-constrained KKT system on them.
+  Eigen::ArrayXi p_fix;  // n: 0 free, −1 at lower bound, +1 at upper, 2 fixed by E
+  Eigen::ArrayXi p_src;  // m + ne: G row j ≥ 0, or −(E row + 1)
+  Eigen::ArrayXi p_side;  // m + ne: −1 lower side, +1 upper side, 0 equality
+  Arr p_val;             // n: value of fixed variables
+  // Per side: 0 guessed from λ > s, −1 released (wrong-signed multiplier), +1 forced (violated).
+  Eigen::ArrayXi p_mode_lb, p_mode_ub, p_mode_lg, p_mode_ug;
+  Mat p_C, p_Y, p_S, p_M;
+  Eigen::LLT<Mat> p_llt;
+  Vec p_d, p_y, p_ry, p_res_y, p_cy, p_z, p_rz, p_res_z, p_cz, p_hz, p_gz, p_ez, p_grad;
+
   bool setup(const QpProblem& problem);
   void cold_start();
   void warm_start();
@@ -205,6 +217,10 @@ struct QpSolver::Workspace {
   bool dual_infeasible(const Vec& d, double eps);
   QpStatus iterate(const QpSettings& settings, int max_iterations, int& iterations);
   void fill_result(QpResult& result);
+  bool polish(const QpSettings& settings);
+  int polish_once(const QpSettings& settings);
+  void polish_apply(int k, const Vec& xz, const Vec& xy, Vec& out_z, Vec& out_y);
+  void polish_solve(int k, const Vec& rz, const Vec& ry, Vec& out_z, Vec& out_y);
 };
 
 void QpSolver::WorkspaceDeleter::operator()(Workspace* w) const { delete w; }
@@ -235,7 +251,13 @@ bool QpSolver::Workspace::setup(const QpProblem& problem) {
                    &cand_hz}) {
       v->setZero(n);
     }
-    for (Vec* v : {&Gz, &Gdz, &tmp_m, &cand_gz}) v->setZero(m);
+    for (Vec* v : {&Gz, &Gdz, &tmp_m, &cand_gz, &p_gz}) v->setZero(m);
+    for (Vec* v : {&p_z, &p_rz, &p_res_z, &p_cz, &p_hz, &p_grad}) v->setZero(n);
+    p_fix.setZero(n);
+    p_val.setZero(n);
+    for (Eigen::ArrayXi* a : {&p_mode_lb, &p_mode_ub}) a->setZero(n);
+    for (Eigen::ArrayXi* a : {&p_mode_lg, &p_mode_ug}) a->setZero(m);
+    p_M.setZero(n, n);
     eq_row_of_g.setConstant(m, -2);
     eq_row_of_var.setConstant(n, -2);
     M.setZero(n, n);
@@ -266,6 +288,14 @@ bool QpSolver::Workspace::setup(const QpProblem& problem) {
     for (Vec* v : {&y, &y_prev, &r_e, &rhs_y, &dy, &res_y, &cy, &cand_ez}) v->setZero(ne);
     Y.setZero(n, ne);
     S.setZero(ne, ne);
+    const int rows = m + ne;
+    for (Vec* v : {&p_d, &p_y, &p_ry, &p_res_y, &p_cy}) v->setZero(rows);
+    p_ez.setZero(ne);
+    p_src.setZero(rows);
+    p_side.setZero(rows);
+    p_C.setZero(rows, n);
+    p_Y.setZero(n, rows);
+    p_S.setZero(rows, rows);
     have_previous = false;
   }
 
@@ -744,10 +774,265 @@ void QpSolver::Workspace::fill_result(QpResult& r) {
   r.duality_gap = mu() * num_inequalities;
 }
 
+// Polishing. The interior point leaves active slacks and multipliers at ~√μ, so z is only
+// ~√μ-accurate where a constraint is degenerate. The active set is guessed from the final
+// iterate (a side is active when λ > s; equality rows always are); variables at an active
+// bound are fixed, and the remaining equality-constrained QP
+//
+//   [ M  Cᵀ ] [z]   [ −f − H z_X + ρ Cᵀd ]        M = H_FF (identity on fixed variables) + ρ CᵀC,
+//   [ C  0  ] [y] = [          d          ]                                                  (3)
+//
+// is solved like (2): LLT of M + σI, Schur complement C M⁻¹ Cᵀ + δI, refinement against the
+// exact operator. The augmented-Lagrangian term ρCᵀC does not change the solution (Cz = d) but
+// makes M definite when H is only semidefinite on free directions; δ handles dependent
+// (duplicated) active rows. The point is accepted by the caller's tests only (see polish()).
+void QpSolver::Workspace::polish_apply(int k, const Vec& xz, const Vec& xy, Vec& out_z,
+                                       Vec& out_y) {
+  out_z.noalias() = p_M * xz;
+  if (k > 0) {
+    out_z.noalias() += p_C.topRows(k).transpose() * xy.head(k);
+    out_y.head(k).noalias() = p_C.topRows(k) * xz;
+  }
+}
+
+void QpSolver::Workspace::polish_solve(int k, const Vec& rz, const Vec& ry, Vec& out_z,
+                                       Vec& out_y) {
+  auto raw_solve = [&](const Vec& bz, const Vec& by, Vec& xz, Vec& xy) {
+    xz = p_llt.solve(bz);
+    if (k > 0) {
+      xy.head(k).noalias() = p_C.topRows(k) * xz;
+      xy.head(k) -= by.head(k);
+      p_S.topLeftCorner(k, k).triangularView<Eigen::Lower>().solveInPlace(xy.head(k));
+      p_S.topLeftCorner(k, k).triangularView<Eigen::Lower>().transpose().solveInPlace(
+          xy.head(k));
+      p_hz.noalias() = p_C.topRows(k).transpose() * xy.head(k);
+      p_llt.solveInPlace(p_hz);
+      xz -= p_hz;
+    }
+  };
+  raw_solve(rz, ry, out_z, out_y);
+  const double rhs_norm = std::max(inf_norm(rz), k > 0 ? inf_norm(ry.head(k)) : 0.0);
+  double previous = kInfinity;
+  for (int pass = 0; pass < kMaxRefinementPasses; ++pass) {
+    polish_apply(k, out_z, out_y, p_res_z, p_res_y);
+    p_res_z = rz - p_res_z;
+    if (k > 0) p_res_y.head(k) = ry.head(k) - p_res_y.head(k);
+    const double r = std::max(inf_norm(p_res_z), k > 0 ? inf_norm(p_res_y.head(k)) : 0.0);
+    if (r <= 1e-15 * rhs_norm || r >= 0.5 * previous) break;
+    previous = r;
+    raw_solve(p_res_z, p_res_y, p_cz, p_cy);
+    out_z += p_cz;
+    if (k > 0) out_y.head(k) += p_cy.head(k);
+  }
+}
+
+// Replaces the interior-point solution by the solution of (3) when that point is primal
+// feasible, its multipliers have the right signs and its objective is not higher, each within
+// the solver's relative tolerance; returns whether it did. The iterate is untouched otherwise.
+// A guess whose multipliers have a wrong sign, or whose point violates a side, is corrected
+// once or twice (release those sides, force the violated ones) before giving up.
+bool QpSolver::Workspace::polish(const QpSettings& settings) {
+  p_mode_lb.setZero();
+  p_mode_ub.setZero();
+  p_mode_lg.setZero();
+  p_mode_ug.setZero();
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const int outcome = polish_once(settings);
+    if (outcome >= 0) return outcome == 1;
+  }
+  return false;
+}
+
+int QpSolver::Workspace::polish_once(const QpSettings& settings) {
+  const QpProblem& pr = *q;
+  const double tol = settings.tolerance;
+  // Active set and fixed variables.
+  for (int i = 0; i < n; ++i) {
+    p_fix[i] = 0;
+    if (eq_row_of_var[i] >= 0) {
+      p_fix[i] = 2;
+      p_val[i] = e[eq_row_of_var[i]];
+    } else {
+      const bool lo = has_lb[i] != 0.0 && p_mode_lb[i] >= 0 &&
+                      (l_lb[i] > s_lb[i] || p_mode_lb[i] > 0);
+      const bool hi = has_ub[i] != 0.0 && p_mode_ub[i] >= 0 &&
+                      (l_ub[i] > s_ub[i] || p_mode_ub[i] > 0);
+      if (lo && (!hi || l_lb[i] >= l_ub[i])) {
+        p_fix[i] = -1;
+        p_val[i] = lb[i];
+      } else if (hi) {
+        p_fix[i] = 1;
+        p_val[i] = ub[i];
+      }
+    }
+  }
+  int k = 0;
+  for (int r = 0; r < ne; ++r) {
+    bool fixes_variable = false;
+    for (int i = 0; i < n && !fixes_variable; ++i) fixes_variable = eq_row_of_var[i] == r;
+    if (fixes_variable) continue;
+    p_C.row(k) = E.row(r);
+    p_d[k] = e[r];
+    p_src[k] = -(r + 1);
+    p_side[k] = 0;
+    ++k;
+  }
+  for (int j = 0; j < m; ++j) {
+    if (eq_row_of_g[j] >= 0) continue;
+    const bool lo = has_lg[j] != 0.0 && p_mode_lg[j] >= 0 &&
+                    (l_lg[j] > s_lg[j] || p_mode_lg[j] > 0);
+    const bool hi = has_ug[j] != 0.0 && p_mode_ug[j] >= 0 &&
+                    (l_ug[j] > s_ug[j] || p_mode_ug[j] > 0);
+    if (!lo && !hi) continue;
+    const bool lower = lo && (!hi || l_lg[j] >= l_ug[j]);
+    p_C.row(k) = pr.G.row(j);
+    p_d[k] = lower ? lg[j] : ug[j];
+    p_src[k] = j;
+    p_side[k] = lower ? -1 : 1;
+    ++k;
+  }
+  // Move the fixed variables to the right-hand side: p_z holds z_X (zero elsewhere).
+  p_z.setZero();
+  for (int i = 0; i < n; ++i) {
+    if (p_fix[i] != 0) p_z[i] = p_val[i];
+  }
+  if (k > 0) {
+    p_d.head(k).noalias() -= p_C.topRows(k) * p_z;
+    for (int i = 0; i < n; ++i) {
+      if (p_fix[i] != 0) p_C.col(i).head(k).setZero();
+    }
+  }
+  p_hz.noalias() = pr.H * p_z;
+  p_rz = -pr.f - p_hz;
+  p_M = pr.H;
+  const double h_scale = std::max(1.0, pr.H.diagonal().cwiseAbs().maxCoeff());
+  if (k > 0) {
+    const double c_scale = std::max(1.0, p_C.topRows(k).rowwise().squaredNorm().maxCoeff());
+    const double rho = h_scale / c_scale;
+    p_M.noalias() += rho * (p_C.topRows(k).transpose() * p_C.topRows(k));
+    p_rz.noalias() += rho * (p_C.topRows(k).transpose() * p_d.head(k));
+  }
+  for (int i = 0; i < n; ++i) {
+    if (p_fix[i] == 0) continue;
+    p_M.row(i).setZero();
+    p_M.col(i).setZero();
+    p_M(i, i) = 1.0;
+    p_rz[i] = p_val[i];
+  }
+  // Factor M + σI and S = C (M + σI)⁻¹ Cᵀ + δI (S's Cholesky factor kept in p_S's lower part).
+  double sigma = 1e-12 * h_scale;
+  bool factored = false;
+  for (int attempt = 0; attempt < 4 && !factored; ++attempt, sigma *= 100.0) {
+    p_M.diagonal().array() += sigma;
+    p_llt.compute(p_M);
+    p_M.diagonal().array() -= sigma;
+    if (p_llt.info() != Eigen::Success) continue;
+    if (k == 0) {
+      factored = true;
+      break;
+    }
+    p_Y.leftCols(k) = p_C.topRows(k).transpose();
+    p_llt.matrixL().solveInPlace(p_Y.leftCols(k));
+    p_S.topLeftCorner(k, k).setZero();
+    p_S.topLeftCorner(k, k).selfadjointView<Eigen::Lower>().rankUpdate(
+        p_Y.leftCols(k).transpose());
+    const double delta =
+        1e-12 * std::max(1.0, p_S.topLeftCorner(k, k).diagonal().maxCoeff()) *
+        std::pow(100.0, attempt);
+    p_S.topLeftCorner(k, k).diagonal().array() += delta;
+    Eigen::Ref<Mat> s_block(p_S.topLeftCorner(k, k));
+    Eigen::LLT<Eigen::Ref<Mat>> llt_s_inplace(s_block);
+    factored = llt_s_inplace.info() == Eigen::Success;
+  }
+  if (!factored) return 0;
+  p_ry.head(k) = p_d.head(k);
+  polish_solve(k, p_rz, p_ry, p_z, p_y);
+  if (!p_z.allFinite() || (k > 0 && !p_y.head(k).allFinite())) return 0;
+  for (int i = 0; i < n; ++i) {
+    if (p_fix[i] != 0) p_z[i] = p_val[i];
+  }
+
+  // Acceptance tests with the scales of the interior point's convergence test.
+  p_hz.noalias() = pr.H * p_z;
+  if (m > 0) p_gz.noalias() = pr.G * p_z;
+  const double primal_scale =
+      std::max({1.0, inf_norm(p_z), inf_norm(p_gz), ne > 0 ? inf_norm(e) : 0.0});
+  const double primal_tol = tol * primal_scale;
+  bool retry = false;
+  for (int i = 0; i < n; ++i) {
+    if (has_lb[i] != 0.0 && lb[i] - p_z[i] > primal_tol) retry = (p_mode_lb[i] = 1);
+    if (has_ub[i] != 0.0 && p_z[i] - ub[i] > primal_tol) retry = (p_mode_ub[i] = 1);
+  }
+  for (int j = 0; j < m; ++j) {
+    if (has_lg[j] != 0.0 && lg[j] - p_gz[j] > primal_tol) retry = (p_mode_lg[j] = 1);
+    if (has_ug[j] != 0.0 && p_gz[j] - ug[j] > primal_tol) retry = (p_mode_ug[j] = 1);
+  }
+  if (ne > 0) {
+    p_ez.noalias() = E * p_z;
+    if (!(inf_norm(p_ez - e) <= primal_tol)) return 0;
+  }
+  // Gradient of the Lagrangian without the fixed variables' multipliers: those are −grad_i.
+  p_grad = p_hz + pr.f;
+  for (int r = 0; r < k; ++r) {
+    if (p_src[r] >= 0) {
+      p_grad.noalias() += p_y[r] * pr.G.row(p_src[r]).transpose();
+    } else {
+      p_grad.noalias() += p_y[r] * E.row(-p_src[r] - 1).transpose();
+    }
+  }
+  const double dual_scale =
+      std::max({1.0, inf_norm(p_hz), inf_norm(pr.f), k > 0 ? inf_norm(p_y.head(k)) : 0.0,
+                inf_norm(p_grad)});
+  const double dual_tol = tol * dual_scale;
+  for (int i = 0; i < n; ++i) {
+    if (p_fix[i] == 0 && std::abs(p_grad[i]) > dual_tol) return 0;
+    if (p_fix[i] == -1 && p_grad[i] < -dual_tol) retry = (p_mode_lb[i] = -1);  // λ_lb = grad_i
+    if (p_fix[i] == 1 && p_grad[i] > dual_tol) retry = (p_mode_ub[i] = -1);    // λ_ub = −grad_i
+  }
+  for (int r = 0; r < k; ++r) {
+    if (p_side[r] == -1 && p_y[r] > dual_tol) retry = (p_mode_lg[p_src[r]] = -1);
+    if (p_side[r] == 1 && p_y[r] < -dual_tol) retry = (p_mode_ug[p_src[r]] = -1);
+  }
+  if (retry) return -1;
+  const double objective_ipm = 0.5 * z.dot(Hz) + pr.f.dot(z);
+  const double objective = 0.5 * p_z.dot(p_hz) + pr.f.dot(p_z);
+  const double gap_scale = std::max({1.0, std::abs(z.dot(Hz)), std::abs(pr.f.dot(z))});
+  if (!(objective <= objective_ipm + tol * gap_scale)) return 0;
+
+  // Accept: the polished point with its multipliers, slacks at the constraints' distances.
+  z = p_z;
+  l_lb.setZero();
+  l_ub.setZero();
+  l_lg.setZero();
+  l_ug.setZero();
+  for (int i = 0; i < n; ++i) {
+    if (p_fix[i] == -1) l_lb[i] = std::max(0.0, p_grad[i]);
+    if (p_fix[i] == 1) l_ub[i] = std::max(0.0, -p_grad[i]);
+    if (p_fix[i] == 2) y[eq_row_of_var[i]] = -p_grad[i];
+  }
+  for (int r = 0; r < k; ++r) {
+    if (p_src[r] < 0) {
+      y[-p_src[r] - 1] = p_y[r];
+    } else if (p_side[r] == -1) {
+      l_lg[p_src[r]] = std::max(0.0, -p_y[r]);
+    } else {
+      l_ug[p_src[r]] = std::max(0.0, p_y[r]);
+    }
+  }
+  if (m > 0) Gz = p_gz;
+  s_lb = has_lb * (z.array() - lb).max(0.0) + (1.0 - has_lb);
+  s_ub = has_ub * (ub - z.array()).max(0.0) + (1.0 - has_ub);
+  s_lg = has_lg * (Gz.array() - lg).max(0.0) + (1.0 - has_lg);
+  s_ug = has_ug * (ug - Gz.array()).max(0.0) + (1.0 - has_ug);
+  residuals();
+  return 1;
+}
+
 const QpResult& QpSolver::solve(const QpProblem& problem) {
   const auto start = std::chrono::steady_clock::now();
   QpResult& r = result_;
   r.iterations = 0;
+  r.polished = false;
   if (!valid_input(problem)) {
     r.status = QpStatus::kInvalidInput;
     r.objective = r.primal_residual = r.dual_residual = r.duality_gap = 0.0;
@@ -772,6 +1057,7 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
       r.iterations += iterations;
     }
     r.status = status;
+    r.polished = status == QpStatus::kSolved && settings_.polish && w.polish(settings_);
     w.fill_result(r);
     if (status == QpStatus::kSolved) {
       w.z_prev = w.z;

@@ -56,6 +56,12 @@ struct QpSettings {
   /// A warm-started solve that has not converged after this many iterations restarts cold
   /// (a far-off previous solution can cost more than a cold start).
   int warm_start_max_iterations = 25;
+  /// After kSolved, solve the equality-constrained QP on the active set guessed from the
+  /// interior point (a side is active when its multiplier exceeds its slack) and keep that
+  /// point when it is feasible, its multipliers have the right signs and its objective is no
+  /// worse, all within `tolerance` (relative): z then is exact up to round-off instead of
+  /// ~√μ-accurate on degenerate problems (as OSQP's polishing).
+  bool polish = true;
 };
 
 /// Outcome of one solve. `z` is meaningful for kSolved (and is the last iterate otherwise).
@@ -71,6 +77,7 @@ struct QpResult {
   double dual_residual = 0.0;    ///< ∞-norm of the Lagrangian's gradient
   double duality_gap = 0.0;
   double solve_time_us = 0.0;
+  bool polished = false;         ///< the polished active-set point replaced the interior point
 };
 
 class QpSolver {

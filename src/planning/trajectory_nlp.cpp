@@ -1,0 +1,841 @@
+#include "planning/trajectory_nlp.hpp"
+
+#include <ceres/jet.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <numeric>
+
+namespace ridgeline::planning::detail {
+namespace {
+
+// ε of h = √(d_x² + d_y² + ε²): keeps norms and their derivatives finite at d = 0.
+constexpr double kNormEps_m = 1e-3;
+// ε_c of the smooth climb σ(d_z) = ½(d_z + √(d_z² + ε_c²)).
+constexpr double kClimbEps_m = 0.1;
+constexpr double kInf = 1e19;  // Ipopt's default "infinity"
+// Step of the central differences of Terrain::gradient that give ∇²H: the peaks' widths are
+// tens of metres or more, so truncation (∝ step²) and round-off (∝ 1e-16/step) are both tiny.
+constexpr double kTerrainHessianStep_m = 1e-3;
+
+// Second-order forward-mode automatic differentiation: value, gradient and Hessian of an
+// expression in N seed variables. Only the operations the element functions use.
+template <int N>
+struct Dual2 {
+  using Vec = Eigen::Matrix<double, N, 1>;
+  using Mat = Eigen::Matrix<double, N, N>;
+  double v = 0.0;
+  Vec g = Vec::Zero();
+  Mat H = Mat::Zero();
+
+  Dual2() = default;
+  Dual2(double value) : v(value) {}  // NOLINT: constants mix freely with variables
+  static Dual2 variable(double value, int k) {
+    Dual2 d(value);
+    d.g[k] = 1.0;
+    return d;
+  }
+  Dual2& operator+=(const Dual2& o) {
+    v += o.v;
+    g += o.g;
+    H += o.H;
+    return *this;
+  }
+  friend Dual2 operator+(Dual2 a, const Dual2& b) { return a += b; }
+  friend Dual2 operator+(Dual2 a, double b) {
+    a.v += b;
+    return a;
+  }
+  friend Dual2 operator+(double a, Dual2 b) { return b + a; }
+  friend Dual2 operator-(Dual2 a) {
+    a.v = -a.v;
+    a.g = -a.g;
+    a.H = -a.H;
+    return a;
+  }
+  friend Dual2 operator-(const Dual2& a, const Dual2& b) { return a + (-b); }
+  friend Dual2 operator-(Dual2 a, double b) {
+    a.v -= b;
+    return a;
+  }
+  friend Dual2 operator-(double a, const Dual2& b) { return (-b) + a; }
+  friend Dual2 operator*(Dual2 a, double b) {
+    a.v *= b;
+    a.g *= b;
+    a.H *= b;
+    return a;
+  }
+  friend Dual2 operator*(double a, Dual2 b) { return b * a; }
+  friend Dual2 operator*(const Dual2& a, const Dual2& b) {
+    Dual2 r;
+    r.v = a.v * b.v;
+    r.g = a.v * b.g + b.v * a.g;
+    r.H = a.v * b.H + b.v * a.H + a.g * b.g.transpose() + b.g * a.g.transpose();
+    return r;
+  }
+  friend Dual2 operator/(const Dual2& a, double b) { return a * (1.0 / b); }
+  friend Dual2 operator/(const Dual2& a, const Dual2& b) {
+    Dual2 inv;  // 1/b
+    inv.v = 1.0 / b.v;
+    inv.g = -b.g * (inv.v * inv.v);
+    inv.H = -b.H * (inv.v * inv.v) + (2.0 * inv.v * inv.v * inv.v) * (b.g * b.g.transpose());
+    return a * inv;
+  }
+  friend Dual2 sqrt(const Dual2& a) {
+    Dual2 r;
+    r.v = std::sqrt(a.v);
+    r.g = a.g / (2.0 * r.v);
+    r.H = a.H / (2.0 * r.v) - (a.g * a.g.transpose()) / (4.0 * r.v * r.v * r.v);
+    return r;
+  }
+};
+
+Eigen::Matrix2d terrain_hessian(const world::Terrain& terrain, double x, double y) {
+  const double h = kTerrainHessianStep_m;
+  const Vec2 dx = (terrain.gradient(x + h, y) - terrain.gradient(x - h, y)) / (2.0 * h);
+  const Vec2 dy = (terrain.gradient(x, y + h) - terrain.gradient(x, y - h)) / (2.0 * h);
+  Eigen::Matrix2d H;
+  H(0, 0) = dx.x();
+  H(1, 1) = dy.y();
+  H(0, 1) = H(1, 0) = 0.5 * (dx.y() + dy.x());
+  return H;
+}
+
+struct ElementParams {
+  double nominal_m = 1.0;  // ℓ
+  double climb_current = 0.0;
+  double turn_current = 0.0;
+  double speed_current = 0.0;
+};
+
+// Segment a → b: parts[0] = (I/I0)·L without the turn share (eq. 22), parts[1] = ℓ·tan²θ.
+template <typename T>
+void segment_parts(const T* a, const T* b, const ElementParams& q, T* parts) {
+  using std::sqrt;
+  const T dx = b[0] - a[0];
+  const T dy = b[1] - a[1];
+  const T dz = b[2] - a[2];
+  const T h2 = dx * dx + dy * dy + T(kNormEps_m * kNormEps_m);
+  const T h = sqrt(h2);
+  const T length = sqrt(h2 + dz * dz);
+  const T climb = 0.5 * (dz + sqrt(dz * dz + T(kClimbEps_m * kClimbEps_m)));
+  const T deviation = h / q.nominal_m - 1.0;
+  parts[0] = length + q.climb_current * climb + q.speed_current * length * deviation * deviation;
+  parts[1] = dz * dz / q.nominal_m;  // ℓ·(d_z/ℓ)²: the grade at the nominal length
+}
+
+// cos φ between the horizontal directions of a → b and b → c (only x, y are read).
+template <typename T>
+T turn_cosine(const T* a, const T* b, const T* c) {
+  using std::sqrt;
+  const T ux = b[0] - a[0];
+  const T uy = b[1] - a[1];
+  const T vx = c[0] - b[0];
+  const T vy = c[1] - b[1];
+  const T eps2 = T(kNormEps_m * kNormEps_m);
+  return (ux * vx + uy * vy) / (sqrt(ux * ux + uy * uy + eps2) * sqrt(vx * vx + vy * vy + eps2));
+}
+
+// Vertex b between a and c: parts[0] = κ_turn·τ·½(L_ab + L_bc) (the turn share of eq. 22),
+// parts[1] = ℓ·τ, τ = 1 − cos φ.
+template <typename T>
+void vertex_parts(const T* a, const T* b, const T* c, const ElementParams& q, T* parts) {
+  using std::sqrt;
+  const T tau = 1.0 - turn_cosine(a, b, c);
+  const T eps2 = T(kNormEps_m * kNormEps_m);
+  T l_ab = eps2;
+  T l_bc = eps2;
+  for (int d = 0; d < 3; ++d) {
+    l_ab += (b[d] - a[d]) * (b[d] - a[d]);
+    l_bc += (c[d] - b[d]) * (c[d] - b[d]);
+  }
+  parts[0] = q.turn_current * tau * 0.5 * (sqrt(l_ab) + sqrt(l_bc));
+  parts[1] = q.nominal_m * tau;
+}
+
+}  // namespace
+
+TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
+  const auto& o = setup_.options;
+  const int n_uav = static_cast<int>(setup_.uavs.size());
+  point_base_.resize(n_uav);
+  pitch_slack_base_.resize(n_uav);
+  turn_slack_base_.resize(n_uav);
+  for (int i = 0; i < n_uav; ++i) {
+    point_base_[i] = num_points_;
+    num_points_ += static_cast<int>(setup_.uavs[i].guess_m.size());
+    max_index_ = std::max(max_index_, setup_.uavs[i].segments());
+  }
+  num_variables_ = 3 * num_points_;
+  for (int i = 0; i < n_uav; ++i) {
+    pitch_slack_base_[i] = setup_.uavs[i].pitch_rows ? num_variables_ : -1;
+    if (setup_.uavs[i].pitch_rows) num_variables_ += setup_.uavs[i].segments();
+  }
+  for (int i = 0; i < n_uav; ++i) {
+    turn_slack_base_[i] = num_variables_;
+    num_variables_ += std::max(0, setup_.uavs[i].segments() - 1);
+  }
+
+  const double floor_m = o.terrain_clearance_m + setup_.terrain->model_error_m();
+  const double cos_turn = std::cos(o.max_turn_angle_rad);
+  for (int i = 0; i < n_uav; ++i) {
+    const GridUav& u = setup_.uavs[i];
+    const int n = u.segments();
+    segment_rows_.emplace_back(n);
+    turn_rows_.emplace_back(std::max(n, 1), -1);
+    for (int k = 0; k < n; ++k) {
+      const int p0 = point(i, k);
+      const int p1 = point(i, k + 1);
+      segment_rows_[i][k][0] = static_cast<int>(rows_.size());
+      Row speed(RowKind::kSpeed, i, -1, k);
+      speed.lower = u.min_length_m[k] * u.min_length_m[k];
+      speed.upper = u.max_length_m * u.max_length_m;
+      add_row(speed, {3 * p0, 3 * p0 + 1, 3 * p1, 3 * p1 + 1});
+      if (o.enforce_climb_rate) {
+        Row climb(RowKind::kClimb, i, -1, k);
+        climb.lower = -u.max_climb_m;
+        climb.upper = u.max_climb_m;
+        add_row(climb, {3 * p0 + 2, 3 * p1 + 2});
+      }
+      segment_rows_[i][k][1] = segment_rows_[i][k][2] = -1;
+      if (u.pitch_rows) for (RowKind kind : {RowKind::kPitchUp, RowKind::kPitchDown}) {
+        segment_rows_[i][k][kind == RowKind::kPitchUp ? 1 : 2] = static_cast<int>(rows_.size());
+        Row pitch(kind, i, -1, k);
+        pitch.lower = 0.0;
+        pitch.upper = kInf;
+        add_row(pitch, {pitch_slack(i, k), 3 * p0 + 2, 3 * p1 + 2});
+      }
+    }
+    for (int k = 1; k < n; ++k) {
+      const int pa = point(i, k - 1);
+      const int pb = point(i, k);
+      const int pc = point(i, k + 1);
+      turn_rows_[i][k] = static_cast<int>(rows_.size());
+      Row turn(RowKind::kTurn, i, -1, k);
+      turn.lower = cos_turn;
+      turn.upper = kInf;
+      add_row(turn, {turn_slack(i, k), 3 * pa, 3 * pa + 1, 3 * pb, 3 * pb + 1, 3 * pc, 3 * pc + 1});
+    }
+    // Terrain clearance (eq. 19–20) at free waypoints and interior points of every segment.
+    auto fixed_slack = [&](int k) {
+      const Vec3& p = u.guess_m[k];
+      return std::max(0.0, p.z() - setup_.terrain->height(p.x(), p.y()) - floor_m);
+    };
+    for (int k = 0; k <= n; ++k) {
+      if (u.fixed[k]) continue;
+      add_terrain_row(i, k, 0.0, floor_m + o.clearance_margin_m + setup_.clearance_extra_m[i][k]);
+    }
+    for (int k = 0; k < n; ++k) {
+      double margin = o.clearance_margin_m +
+                      std::max(setup_.clearance_extra_m[i][k], setup_.clearance_extra_m[i][k + 1]);
+      // Next to a fixed point (start, target) the margin cannot exceed that point's own slack,
+      // or the rows next to it would be infeasible by construction.
+      if (u.fixed[k]) margin = std::min(margin, fixed_slack(k));
+      if (u.fixed[k + 1]) margin = std::min(margin, fixed_slack(k + 1));
+      const int s = setup_.terrain_samples[i][k];
+      for (int j = 1; j <= s; ++j) add_terrain_row(i, k, static_cast<double>(j) / (s + 1), floor_m + margin);
+    }
+  }
+
+  // Separation (eq. 21) for the candidates.
+  auto is_fixed = [&](int uav, int k) {
+    const GridUav& u = setup_.uavs[uav];
+    return u.fixed[std::min(k, u.segments())] != 0;
+  };
+  for (const SeparationCandidate& c : setup_.candidates) {
+    const double d = o.separation_m + o.separation_margin_m + c.margin_m;
+    auto add = [&](double tau) {
+      Row row(RowKind::kSeparation, c.uav_a, c.uav_b, c.k, tau);
+      row.lower = d * d;
+      row.upper = kInf;
+      const int k1 = std::min(c.k + 1, max_index_);
+      const Term raw[4] = {{point(c.uav_a, c.k), 1.0 - tau}, {point(c.uav_a, k1), tau},
+                           {point(c.uav_b, c.k), -(1.0 - tau)}, {point(c.uav_b, k1), -tau}};
+      for (const Term& t : raw) {
+        if (t.weight == 0.0) continue;
+        int m = 0;
+        while (m < row.num_terms && row.terms[m].point != t.point) ++m;
+        if (m == row.num_terms) row.terms[row.num_terms++] = Term{t.point, 0.0};
+        row.terms[m].weight += t.weight;
+      }
+      const bool all_fixed = is_fixed(c.uav_a, c.k) && is_fixed(c.uav_b, c.k) &&
+                  (tau == 0.0 || (is_fixed(c.uav_a, k1) && is_fixed(c.uav_b, k1)));
+      if (all_fixed) return;
+      std::vector<int> cols;
+      for (int m = 0; m < row.num_terms; ++m)
+        for (int d3 = 0; d3 < 3; ++d3) cols.push_back(3 * row.terms[m].point + d3);
+      add_row(row, cols);
+      ++separation_rows_;
+    };
+    add(0.0);
+    if (c.k < max_index_)
+      for (int j = 1; j <= c.interior_samples; ++j) add(static_cast<double>(j) / (c.interior_samples + 1));
+  }
+
+  // Hessian structure: record the element loop's entries once and merge duplicates.
+  std::vector<std::pair<int, int>> entries;
+  std::vector<double> x0(num_variables_);
+  initial_point(x0.data());
+  const std::vector<double> zeros(rows_.size(), 0.0);
+  hessian_loop(x0.data(), 1.0, zeros.data(),
+               [&](int r, int c, double) { entries.emplace_back(r, c); });
+  std::vector<std::pair<int, int>> unique = entries;
+  std::sort(unique.begin(), unique.end());
+  unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+  for (const auto& [r, c] : unique) {
+    hess_rows_.push_back(r);
+    hess_cols_.push_back(c);
+  }
+  hess_slot_.reserve(entries.size());
+  for (const auto& e : entries)
+    hess_slot_.push_back(static_cast<int>(std::lower_bound(unique.begin(), unique.end(), e) - unique.begin()));
+}
+
+int TrajectoryNlp::point(int uav, int k) const {
+  return point_base_[uav] + std::min(k, setup_.uavs[uav].segments());
+}
+
+void TrajectoryNlp::add_row(Row row, const std::vector<int>& cols) {
+  row.col_begin = static_cast<int>(cols_.size());
+  cols_.insert(cols_.end(), cols.begin(), cols.end());
+  row.col_end = static_cast<int>(cols_.size());
+  rows_.push_back(row);
+}
+
+void TrajectoryNlp::add_terrain_row(int uav, int k, double tau, double required_m) {
+  Row row(RowKind::kTerrain, uav, -1, k, tau);
+  row.lower = required_m;
+  row.upper = kInf;
+  row.terms[row.num_terms++] = Term{point(uav, k), 1.0 - tau};
+  if (tau > 0.0) row.terms[row.num_terms++] = Term{point(uav, k + 1), tau};
+  std::vector<int> cols;
+  for (int m = 0; m < row.num_terms; ++m)
+    for (int d = 0; d < 3; ++d) cols.push_back(3 * row.terms[m].point + d);
+  add_row(row, cols);
+}
+
+void TrajectoryNlp::bounds(double* x_l, double* x_u, double* g_l, double* g_u) const {
+  const auto& o = setup_.options;
+  for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i) {
+    const GridUav& u = setup_.uavs[i];
+    for (int k = 0; k <= u.segments(); ++k) {
+      const int v = 3 * point(i, k);
+      for (int d = 0; d < 3; ++d) {
+        if (u.fixed[k]) {
+          x_l[v + d] = x_u[v + d] = u.guess_m[k][d];
+        } else if (d == 2) {
+          x_l[v + d] = o.min_altitude_m;  // eq. 14
+          x_u[v + d] = o.max_altitude_m;
+        } else {
+          x_l[v + d] = -kInf;
+          x_u[v + d] = kInf;
+        }
+      }
+    }
+  }
+  for (int v = 3 * num_points_; v < num_variables_; ++v) {
+    x_l[v] = 0.0;
+    x_u[v] = kInf;
+  }
+  for (std::size_t r = 0; r < rows_.size(); ++r) {
+    g_l[r] = rows_[r].lower;
+    g_u[r] = rows_[r].upper;
+  }
+}
+
+void TrajectoryNlp::row_scaling(double* scale) const {
+  for (std::size_t r = 0; r < rows_.size(); ++r) {
+    const Row& row = rows_[r];
+    if (row.kind == RowKind::kSpeed) {
+      scale[r] = 1.0 / (2.0 * setup_.uavs[row.uav].nominal_length_m);
+    } else if (row.kind == RowKind::kSeparation) {
+      scale[r] = 1.0 / (2.0 * std::sqrt(std::max(row.lower, 1.0)));
+    } else {
+      scale[r] = 1.0;
+    }
+  }
+}
+
+void TrajectoryNlp::pack(const std::vector<std::vector<Vec3>>& waypoints_m, double* x) const {
+  for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i)
+    for (int k = 0; k <= setup_.uavs[i].segments(); ++k)
+      for (int d = 0; d < 3; ++d) x[3 * point(i, k) + d] = waypoints_m[i][k][d];
+  std::fill(x + 3 * num_points_, x + num_variables_, 0.0);
+  // Each slack at the smallest value its rows allow.
+  for (const Row& row : rows_) {
+    if (row.kind != RowKind::kPitchUp && row.kind != RowKind::kPitchDown && row.kind != RowKind::kTurn)
+      continue;
+    const int s = cols_[row.col_begin];
+    const double saved = x[s];
+    x[s] = 0.0;
+    const double g = row_value(row, x);
+    x[s] = std::max(saved, row.lower - g);
+  }
+}
+
+void TrajectoryNlp::initial_point(double* x) const {
+  std::vector<std::vector<Vec3>> guess;
+  for (const GridUav& u : setup_.uavs) guess.push_back(u.guess_m);
+  pack(guess, x);
+}
+
+std::vector<std::vector<Vec3>> TrajectoryNlp::unpack(const double* x) const {
+  std::vector<std::vector<Vec3>> out(setup_.uavs.size());
+  for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i)
+    for (int k = 0; k <= setup_.uavs[i].segments(); ++k) {
+      const int v = 3 * point(i, k);
+      out[i].emplace_back(x[v], x[v + 1], x[v + 2]);
+    }
+  return out;
+}
+
+double TrajectoryNlp::objective(const double* x) const {
+  double collision = 0.0;
+  const std::vector<UavCost> costs_i = costs(x, &collision);
+  const auto& o = setup_.options;
+  double f = o.lambda_collision * collision;
+  for (const UavCost& c : costs_i) f += o.lambda_individual * c.total;
+  return f;
+}
+
+std::vector<UavCost> TrajectoryNlp::costs(const double* x, double* collision_cost) const {
+  const auto& o = setup_.options;
+  const world::Terrain& terrain = *setup_.terrain;
+  std::vector<UavCost> out(setup_.uavs.size());
+  for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i) {
+    const GridUav& u = setup_.uavs[i];
+    UavCost& c = out[i];
+    const ElementParams q{u.nominal_length_m, o.climb_current, o.turn_current, o.speed_current};
+    const int n = u.segments();
+    for (int k = 0; k < n; ++k) {
+      const double* a = x + 3 * point(i, k);
+      const double* b = x + 3 * point(i, k + 1);
+      double parts[2];
+      segment_parts(a, b, q, parts);
+      c.range += parts[0];
+      c.pitch += parts[1];
+      const double s = u.pitch_rows ? x[pitch_slack(i, k)] : 0.0;
+      c.pitch_penalty += q.nominal_m * o.pitch_penalty * s;
+      const Vec3 d(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+      c.length_m += d.norm();
+      c.max_pitch_rad = std::max(c.max_pitch_rad, std::atan2(std::abs(d.z()), d.head<2>().norm()));
+    }
+    for (int k = 1; k < n; ++k) {
+      const double* a = x + 3 * point(i, k - 1);
+      const double* b = x + 3 * point(i, k);
+      const double* cc = x + 3 * point(i, k + 1);
+      double parts[2];
+      vertex_parts(a, b, cc, q, parts);
+      c.range += parts[0];
+      c.turn += parts[1];
+      c.turn_penalty += q.nominal_m * o.turn_penalty * x[turn_slack(i, k)];
+      c.max_turn_rad = std::max(c.max_turn_rad, std::acos(std::clamp(turn_cosine(a, b, cc), -1.0, 1.0)));
+    }
+    for (int k = 0; k <= n; ++k) {
+      const double* p = x + 3 * point(i, k);
+      c.altitude += q.nominal_m * (p[2] - terrain.height(p[0], p[1])) / o.altitude_scale_m;
+    }
+    c.pitch += c.pitch_penalty;
+    c.turn += c.turn_penalty;
+    c.total = o.weight_range * c.range + o.weight_pitch * c.pitch + o.weight_turn * c.turn +
+              o.weight_altitude * c.altitude;
+  }
+  double col = 0.0;
+  const double dc2 = o.collision_soft_distance_m * o.collision_soft_distance_m;
+  for (const SeparationCandidate& cand : setup_.candidates) {
+    const double* a = x + 3 * point(cand.uav_a, cand.k);
+    const double* b = x + 3 * point(cand.uav_b, cand.k);
+    double r2 = 0.0;
+    for (int d = 0; d < 3; ++d) r2 += (a[d] - b[d]) * (a[d] - b[d]);
+    const double e = std::max(0.0, 1.0 - r2 / dc2);
+    const double l = 0.5 * (setup_.uavs[cand.uav_a].nominal_length_m +
+                            setup_.uavs[cand.uav_b].nominal_length_m);
+    col += l * e * e;
+  }
+  if (collision_cost != nullptr) *collision_cost = col;
+  return out;
+}
+
+void TrajectoryNlp::gradient(const double* x, double* grad) const {
+  using Jet6 = ceres::Jet<double, 6>;
+  using Jet9 = ceres::Jet<double, 9>;
+  const auto& o = setup_.options;
+  const world::Terrain& terrain = *setup_.terrain;
+  std::fill(grad, grad + num_variables_, 0.0);
+  const double l1 = o.lambda_individual;
+  for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i) {
+    const GridUav& u = setup_.uavs[i];
+    const ElementParams q{u.nominal_length_m, o.climb_current, o.turn_current, o.speed_current};
+    const int n = u.segments();
+    for (int k = 0; k < n; ++k) {
+      const int va = 3 * point(i, k);
+      const int vb = 3 * point(i, k + 1);
+      Jet6 a[3];
+      Jet6 b[3];
+      for (int d = 0; d < 3; ++d) {
+        a[d] = Jet6(x[va + d], d);
+        b[d] = Jet6(x[vb + d], 3 + d);
+      }
+      Jet6 parts[2];
+      segment_parts(a, b, q, parts);
+      const Jet6 f = l1 * (o.weight_range * parts[0] + o.weight_pitch * parts[1]);
+      for (int d = 0; d < 3; ++d) {
+        grad[va + d] += f.v[d];
+        grad[vb + d] += f.v[3 + d];
+      }
+      if (u.pitch_rows) grad[pitch_slack(i, k)] += l1 * o.weight_pitch * q.nominal_m * o.pitch_penalty;
+    }
+    for (int k = 1; k < n; ++k) {
+      const int v[3] = {3 * point(i, k - 1), 3 * point(i, k), 3 * point(i, k + 1)};
+      Jet9 p[3][3];
+      for (int m = 0; m < 3; ++m)
+        for (int d = 0; d < 3; ++d) p[m][d] = Jet9(x[v[m] + d], 3 * m + d);
+      Jet9 parts[2];
+      vertex_parts(p[0], p[1], p[2], q, parts);
+      const Jet9 f = l1 * (o.weight_range * parts[0] + o.weight_turn * parts[1]);
+      for (int m = 0; m < 3; ++m)
+        for (int d = 0; d < 3; ++d) grad[v[m] + d] += f.v[3 * m + d];
+      grad[turn_slack(i, k)] += l1 * o.weight_turn * q.nominal_m * o.turn_penalty;
+    }
+    const double coef = l1 * o.weight_altitude * q.nominal_m / o.altitude_scale_m;
+    for (int k = 0; k <= n; ++k) {
+      const int vp = 3 * point(i, k);
+      const Vec2 g = terrain.gradient(x[vp], x[vp + 1]);
+      grad[vp] -= coef * g.x();
+      grad[vp + 1] -= coef * g.y();
+      grad[vp + 2] += coef;
+    }
+  }
+  const double dc2 = o.collision_soft_distance_m * o.collision_soft_distance_m;
+  for (const SeparationCandidate& cand : setup_.candidates) {
+    const int va = 3 * point(cand.uav_a, cand.k);
+    const int vb = 3 * point(cand.uav_b, cand.k);
+    double r[3];
+    double r2 = 0.0;
+    for (int d = 0; d < 3; ++d) {
+      r[d] = x[va + d] - x[vb + d];
+      r2 += r[d] * r[d];
+    }
+    const double e = 1.0 - r2 / dc2;
+    if (e <= 0.0) continue;
+    const double l = 0.5 * (setup_.uavs[cand.uav_a].nominal_length_m +
+                            setup_.uavs[cand.uav_b].nominal_length_m);
+    // d/dr of l·e² = l·2e·(−2r/D_c²)
+    const double c = o.lambda_collision * l * 2.0 * e * (-2.0 / dc2);
+    for (int d = 0; d < 3; ++d) {
+      grad[va + d] += c * r[d];
+      grad[vb + d] -= c * r[d];
+    }
+  }
+}
+
+double TrajectoryNlp::row_value(const Row& row, const double* x) const {
+  const GridUav& u = setup_.uavs[row.uav];
+  switch (row.kind) {
+    case RowKind::kSpeed: {
+      const int* c = &cols_[row.col_begin];
+      const double dx = x[c[2]] - x[c[0]];
+      const double dy = x[c[3]] - x[c[1]];
+      return dx * dx + dy * dy;
+    }
+    case RowKind::kClimb: {
+      const int* c = &cols_[row.col_begin];
+      return x[c[1]] - x[c[0]];
+    }
+    case RowKind::kPitchUp:
+    case RowKind::kPitchDown: {
+      const int* c = &cols_[row.col_begin];
+      const double dz = x[c[2]] - x[c[1]];
+      const double sign = row.kind == RowKind::kPitchUp ? -1.0 : 1.0;
+      return x[c[0]] + sign * dz / u.nominal_length_m + u.tan_max_pitch;
+    }
+    case RowKind::kTurn: {
+      const int* c = &cols_[row.col_begin];
+      const double a[2] = {x[c[1]], x[c[2]]};
+      const double b[2] = {x[c[3]], x[c[4]]};
+      const double cc[2] = {x[c[5]], x[c[6]]};
+      return x[c[0]] + turn_cosine(a, b, cc);
+    }
+    case RowKind::kTerrain: {
+      Vec3 q = Vec3::Zero();
+      for (int m = 0; m < row.num_terms; ++m)
+        q += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                        x[3 * row.terms[m].point + 2]);
+      return q.z() - setup_.terrain->height(q.x(), q.y());
+    }
+    case RowKind::kSeparation: {
+      Vec3 r = Vec3::Zero();
+      for (int m = 0; m < row.num_terms; ++m)
+        r += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                        x[3 * row.terms[m].point + 2]);
+      return r.squaredNorm();
+    }
+  }
+  return 0.0;
+}
+
+void TrajectoryNlp::constraints(const double* x, double* g) const {
+  for (std::size_t r = 0; r < rows_.size(); ++r) g[r] = row_value(rows_[r], x);
+}
+
+void TrajectoryNlp::jacobian_structure(int* rows, int* cols) const {
+  for (std::size_t r = 0; r < rows_.size(); ++r)
+    for (int e = rows_[r].col_begin; e < rows_[r].col_end; ++e) {
+      rows[e] = static_cast<int>(r);
+      cols[e] = cols_[e];
+    }
+}
+
+void TrajectoryNlp::jacobian_values(const double* x, double* values) const {
+  using Jet6 = ceres::Jet<double, 6>;
+  for (const Row& row : rows_) {
+    const GridUav& u = setup_.uavs[row.uav];
+    const int* c = &cols_[row.col_begin];
+    double* v = values + row.col_begin;
+    switch (row.kind) {
+      case RowKind::kSpeed: {
+        const double dx = x[c[2]] - x[c[0]];
+        const double dy = x[c[3]] - x[c[1]];
+        v[0] = -2.0 * dx;
+        v[1] = -2.0 * dy;
+        v[2] = 2.0 * dx;
+        v[3] = 2.0 * dy;
+        break;
+      }
+      case RowKind::kClimb:
+        v[0] = -1.0;
+        v[1] = 1.0;
+        break;
+      case RowKind::kPitchUp:
+      case RowKind::kPitchDown: {
+        const double sign = row.kind == RowKind::kPitchUp ? -1.0 : 1.0;
+        v[0] = 1.0;
+        v[1] = -sign / u.nominal_length_m;
+        v[2] = sign / u.nominal_length_m;
+        break;
+      }
+      case RowKind::kTurn: {
+        Jet6 a[2] = {Jet6(x[c[1]], 0), Jet6(x[c[2]], 1)};
+        Jet6 b[2] = {Jet6(x[c[3]], 2), Jet6(x[c[4]], 3)};
+        Jet6 cc[2] = {Jet6(x[c[5]], 4), Jet6(x[c[6]], 5)};
+        const Jet6 cosine = turn_cosine(a, b, cc);
+        v[0] = 1.0;
+        for (int d = 0; d < 6; ++d) v[1 + d] = cosine.v[d];
+        break;
+      }
+      case RowKind::kTerrain: {
+        Vec3 q = Vec3::Zero();
+        for (int m = 0; m < row.num_terms; ++m)
+          q += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                          x[3 * row.terms[m].point + 2]);
+        const Vec2 grad = setup_.terrain->gradient(q.x(), q.y());
+        for (int m = 0; m < row.num_terms; ++m) {
+          const double w = row.terms[m].weight;
+          v[3 * m] = -w * grad.x();
+          v[3 * m + 1] = -w * grad.y();
+          v[3 * m + 2] = w;
+        }
+        break;
+      }
+      case RowKind::kSeparation: {
+        Vec3 r = Vec3::Zero();
+        for (int m = 0; m < row.num_terms; ++m)
+          r += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                          x[3 * row.terms[m].point + 2]);
+        for (int m = 0; m < row.num_terms; ++m)
+          for (int d = 0; d < 3; ++d) v[3 * m + d] = 2.0 * row.terms[m].weight * r[d];
+        break;
+      }
+    }
+  }
+}
+
+template <typename Add>
+void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* lambda,
+                                 Add&& add) const {
+  const auto& o = setup_.options;
+  const world::Terrain& terrain = *setup_.terrain;
+  const double l1 = sigma * o.lambda_individual;
+  auto add_lower = [&](int a, int b, double value) {
+    if (a >= b) {
+      add(a, b, value);
+    } else {
+      add(b, a, value);
+    }
+  };
+  for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i) {
+    const GridUav& u = setup_.uavs[i];
+    const ElementParams q{u.nominal_length_m, o.climb_current, o.turn_current, o.speed_current};
+    const int n = u.segments();
+    for (int k = 0; k < n; ++k) {
+      using D = Dual2<6>;
+      const int v0 = 3 * point(i, k);
+      const int v1 = 3 * point(i, k + 1);
+      const int v[6] = {v0, v0 + 1, v0 + 2, v1, v1 + 1, v1 + 2};
+      D a[3];
+      D b[3];
+      for (int d = 0; d < 3; ++d) {
+        a[d] = D::variable(x[v0 + d], d);
+        b[d] = D::variable(x[v1 + d], 3 + d);
+      }
+      D parts[2];
+      segment_parts(a, b, q, parts);
+      D f = l1 * (o.weight_range * parts[0] + o.weight_pitch * parts[1]);
+      const std::array<int, 3>& r = segment_rows_[i][k];
+      const D dx = b[0] - a[0];
+      const D dy = b[1] - a[1];
+      const D h2 = dx * dx + dy * dy;
+      f += lambda[r[0]] * h2;  // speed row (the pitch rows are linear)
+      for (int m = 0; m < 6; ++m)
+        for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
+    }
+    for (int k = 1; k < n; ++k) {
+      using D = Dual2<9>;
+      int v[9];
+      D p[3][3];
+      for (int m = 0; m < 3; ++m) {
+        const int base = 3 * point(i, k - 1 + m);
+        for (int d = 0; d < 3; ++d) {
+          v[3 * m + d] = base + d;
+          p[m][d] = D::variable(x[base + d], 3 * m + d);
+        }
+      }
+      D parts[2];
+      vertex_parts(p[0], p[1], p[2], q, parts);
+      D f = l1 * (o.weight_range * parts[0] + o.weight_turn * parts[1]);
+      f += lambda[turn_rows_[i][k]] * turn_cosine(p[0], p[1], p[2]);
+      for (int m = 0; m < 9; ++m)
+        for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
+    }
+    const double coef = l1 * o.weight_altitude * q.nominal_m / o.altitude_scale_m;
+    for (int k = 0; k <= n; ++k) {
+      const int vp = 3 * point(i, k);
+      const Eigen::Matrix2d H = terrain_hessian(terrain, x[vp], x[vp + 1]);
+      add(vp, vp, -coef * H(0, 0));
+      add(vp + 1, vp, -coef * H(1, 0));
+      add(vp + 1, vp + 1, -coef * H(1, 1));
+    }
+  }
+  for (std::size_t ri = 0; ri < rows_.size(); ++ri) {
+    const Row& row = rows_[ri];
+    if (row.kind == RowKind::kTerrain) {
+      Vec3 qp = Vec3::Zero();
+      for (int m = 0; m < row.num_terms; ++m)
+        qp += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                         x[3 * row.terms[m].point + 2]);
+      const Eigen::Matrix2d H = terrain_hessian(terrain, qp.x(), qp.y());
+      for (int m = 0; m < row.num_terms; ++m)
+        for (int c = 0; c <= m; ++c) {
+          const double w = -lambda[ri] * row.terms[m].weight * row.terms[c].weight;
+          const int pm = 3 * row.terms[m].point;
+          const int pc = 3 * row.terms[c].point;
+          for (int d = 0; d < 2; ++d)
+            for (int e = 0; e < 2; ++e)
+              if (m != c || e <= d) add_lower(pm + d, pc + e, w * H(d, e));
+        }
+    } else if (row.kind == RowKind::kSeparation) {
+      for (int m = 0; m < row.num_terms; ++m)
+        for (int c = 0; c <= m; ++c) {
+          const double w = 2.0 * lambda[ri] * row.terms[m].weight * row.terms[c].weight;
+          for (int d = 0; d < 3; ++d)
+            add_lower(3 * row.terms[m].point + d, 3 * row.terms[c].point + d, w);
+        }
+    }
+  }
+  const double dc2 = o.collision_soft_distance_m * o.collision_soft_distance_m;
+  for (const SeparationCandidate& cand : setup_.candidates) {
+    const int va = 3 * point(cand.uav_a, cand.k);
+    const int vb = 3 * point(cand.uav_b, cand.k);
+    const Vec3 r(x[va] - x[vb], x[va + 1] - x[vb + 1], x[va + 2] - x[vb + 2]);
+    const double e = 1.0 - r.squaredNorm() / dc2;
+    const double l = 0.5 * (setup_.uavs[cand.uav_a].nominal_length_m +
+                            setup_.uavs[cand.uav_b].nominal_length_m);
+    // ∇²_r of l·e² = l·(8 r rᵀ/D⁴ − 4e/D²·I) while e > 0, else 0.
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    if (e > 0.0)
+      H = sigma * o.lambda_collision * l *
+          (8.0 * r * r.transpose() / (dc2 * dc2) - 4.0 * e / dc2 * Eigen::Matrix3d::Identity());
+    for (int d = 0; d < 3; ++d)
+      for (int c = 0; c < 3; ++c) {
+        if (c <= d) {
+          add(va + d, va + c, H(d, c));
+          add(vb + d, vb + c, H(d, c));
+        }
+        add_lower(va + d, vb + c, -H(d, c));
+      }
+  }
+}
+
+void TrajectoryNlp::hessian_structure(int* rows, int* cols) const {
+  std::copy(hess_rows_.begin(), hess_rows_.end(), rows);
+  std::copy(hess_cols_.begin(), hess_cols_.end(), cols);
+}
+
+void TrajectoryNlp::hessian_values(const double* x, double sigma, const double* lambda,
+                                   double* values) const {
+  std::fill(values, values + hess_rows_.size(), 0.0);
+  std::size_t m = 0;
+  hessian_loop(x, sigma, lambda, [&](int, int, double v) { values[hess_slot_[m++]] += v; });
+}
+
+std::string TrajectoryNlp::describe(const Row& row) const {
+  const std::string& name = setup_.uavs[row.uav].name;
+  const double dt = setup_.time_step_s;
+  switch (row.kind) {
+    case RowKind::kSpeed:
+      return fmt::format("speed band (eq. 2) of UAV {} on segment {} (t = {:.1f} s)", name, row.k,
+                         row.k * dt);
+    case RowKind::kClimb:
+      return fmt::format("climb rate (eq. 2) of UAV {} on segment {} (t = {:.1f} s)", name, row.k,
+                         row.k * dt);
+    case RowKind::kPitchUp:
+    case RowKind::kPitchDown:
+      return fmt::format("pitch slack (eq. 16) of UAV {} on segment {}", name, row.k);
+    case RowKind::kTurn:
+      return fmt::format("turn slack (eq. 18) of UAV {} at waypoint {}", name, row.k);
+    case RowKind::kTerrain:
+      return fmt::format("terrain clearance (eq. 19-20) of UAV {} on segment {} at {:.2f} of its "
+                         "length (t = {:.1f} s)",
+                         name, row.k, row.tau, (row.k + row.tau) * dt);
+    case RowKind::kSeparation:
+      return fmt::format("separation (eq. 21) of UAVs {} and {} at t = {:.1f} s", name,
+                         setup_.uavs[row.other].name, (row.k + row.tau) * dt);
+  }
+  return "";
+}
+
+std::string TrajectoryNlp::worst_rows(const double* x, int max_lines) const {
+  struct Miss {
+    double amount;
+    int row;
+    Vec3 where;
+  };
+  std::vector<Miss> misses;
+  for (int r = 0; r < static_cast<int>(rows_.size()); ++r) {
+    const Row& row = rows_[r];
+    const double g = row_value(row, x);
+    const double amount = std::max(row.lower - g, g - row.upper);
+    if (amount <= setup_.options.constraint_tolerance) continue;
+    const int k1 = std::min(row.k + 1, setup_.uavs[row.uav].segments());
+    const double* a = x + 3 * point(row.uav, row.k);
+    const double* b = x + 3 * point(row.uav, k1);
+    const Vec3 pa(a[0], a[1], a[2]);
+    const Vec3 pb(b[0], b[1], b[2]);
+    misses.push_back({amount, r, pa + row.tau * (pb - pa)});
+  }
+  std::sort(misses.begin(), misses.end(), [](const Miss& l, const Miss& r) { return l.amount > r.amount; });
+  std::string out;
+  for (int m = 0; m < static_cast<int>(misses.size()) && m < max_lines; ++m) {
+    const Row& row = rows_[misses[m].row];
+    const double g = row_value(row, x);
+    if (!out.empty()) out += "; ";
+    out += fmt::format("{} near ({:.1f}, {:.1f}, {:.1f}): value {:.3g} outside [{:.3g}, {:.3g}]",
+                       describe(row), misses[m].where.x(), misses[m].where.y(), misses[m].where.z(),
+                       g, row.lower, row.upper >= kInf ? INFINITY : row.upper);
+  }
+  return out;
+}
+
+}  // namespace ridgeline::planning::detail

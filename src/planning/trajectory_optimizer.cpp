@@ -1,0 +1,511 @@
+#include "planning/trajectory_optimizer.hpp"
+
+#include <coin/IpIpoptApplication.hpp>
+#include <coin/IpSolveStatistics.hpp>
+#include <coin/IpTNLP.hpp>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "planning/trajectory_nlp.hpp"
+
+namespace ridgeline::planning {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using detail::GridUav;
+using detail::NlpSetup;
+using detail::SeparationCandidate;
+using detail::TrajectoryNlp;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Ipopt adapter around the solver-independent transcription.
+class IpoptAdapter : public Ipopt::TNLP {
+ public:
+  IpoptAdapter(const TrajectoryNlp& nlp, std::vector<double> x0, bool exact_hessian)
+      : nlp_(nlp), x0_(std::move(x0)), x_(x0_), exact_hessian_(exact_hessian) {}
+
+  const std::vector<double>& x() const { return x_; }
+  Ipopt::SolverReturn status() const { return status_; }
+
+  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac, Ipopt::Index& nnz_h,
+                    IndexStyleEnum& style) override {
+    n = nlp_.num_variables();
+    m = nlp_.num_constraints();
+    nnz_jac = nlp_.jacobian_nonzeros();
+    nnz_h = exact_hessian_ ? nlp_.hessian_nonzeros() : 0;
+    style = C_STYLE;
+    return true;
+  }
+  bool get_bounds_info(Ipopt::Index, Ipopt::Number* x_l, Ipopt::Number* x_u, Ipopt::Index,
+                       Ipopt::Number* g_l, Ipopt::Number* g_u) override {
+    nlp_.bounds(x_l, x_u, g_l, g_u);
+    return true;
+  }
+  bool get_starting_point(Ipopt::Index n, bool init_x, Ipopt::Number* x, bool init_z,
+                          Ipopt::Number*, Ipopt::Number*, Ipopt::Index, bool init_lambda,
+                          Ipopt::Number*) override {
+    if (!init_x || init_z || init_lambda) return false;
+    std::copy(x0_.begin(), x0_.begin() + n, x);
+    return true;
+  }
+  bool get_scaling_parameters(Ipopt::Number& obj_scaling, bool& use_x_scaling, Ipopt::Index,
+                              Ipopt::Number*, bool& use_g_scaling, Ipopt::Index,
+                              Ipopt::Number* g_scaling) override {
+    obj_scaling = 1.0;
+    use_x_scaling = false;
+    use_g_scaling = true;
+    nlp_.row_scaling(g_scaling);
+    return true;
+  }
+  bool eval_f(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number& f) override {
+    f = nlp_.objective(x);
+    return std::isfinite(f);
+  }
+  bool eval_grad_f(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number* g) override {
+    nlp_.gradient(x, g);
+    return true;
+  }
+  bool eval_g(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Index, Ipopt::Number* g) override {
+    nlp_.constraints(x, g);
+    return true;
+  }
+  bool eval_jac_g(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Index, Ipopt::Index,
+                  Ipopt::Index* rows, Ipopt::Index* cols, Ipopt::Number* values) override {
+    if (values == nullptr) {
+      nlp_.jacobian_structure(rows, cols);
+    } else {
+      nlp_.jacobian_values(x, values);
+    }
+    return true;
+  }
+  bool eval_h(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number sigma, Ipopt::Index,
+              const Ipopt::Number* lambda, bool, Ipopt::Index, Ipopt::Index* rows,
+              Ipopt::Index* cols, Ipopt::Number* values) override {
+    if (!exact_hessian_) return false;
+    if (values == nullptr) {
+      nlp_.hessian_structure(rows, cols);
+    } else {
+      nlp_.hessian_values(x, sigma, lambda, values);
+    }
+    return true;
+  }
+  void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x,
+                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Index,
+                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Number,
+                         const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
+    status_ = status;
+    x_.assign(x, x + n);
+  }
+
+ private:
+  const TrajectoryNlp& nlp_;
+  std::vector<double> x0_;
+  std::vector<double> x_;
+  Ipopt::SolverReturn status_ = Ipopt::INTERNAL_ERROR;
+  bool exact_hessian_ = true;
+};
+
+std::string check_options(const TrajectoryOptimizerOptions& o) {
+  auto bad = [](const char* field, const char* why) { return fmt::format("options.{}: {}", field, why); };
+  auto finite_nonneg = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  if (o.time_step_s <= 0.0 && o.waypoints_per_uav < 2) return bad("waypoints_per_uav", "must be >= 2");
+  if (!std::isfinite(o.time_step_s)) return bad("time_step_s", "must be finite");
+  if (!std::isfinite(o.min_altitude_m) || !std::isfinite(o.max_altitude_m) ||
+      !(o.min_altitude_m < o.max_altitude_m))
+    return bad("min_altitude_m", "must be finite and below max_altitude_m");
+  if (!finite_nonneg(o.terrain_clearance_m)) return bad("terrain_clearance_m", "must be >= 0");
+  if (!(o.separation_m > 0.0 && std::isfinite(o.separation_m))) return bad("separation_m", "must be > 0");
+  if (!finite_nonneg(o.clearance_margin_m)) return bad("clearance_margin_m", "must be >= 0");
+  if (!finite_nonneg(o.separation_margin_m)) return bad("separation_margin_m", "must be >= 0");
+  if (o.terrain_samples_per_segment < 0) return bad("terrain_samples_per_segment", "must be >= 0");
+  if (o.separation_samples_per_step < 0) return bad("separation_samples_per_step", "must be >= 0");
+  if (!finite_nonneg(o.separation_prefilter_m)) return bad("separation_prefilter_m", "must be >= 0");
+  if (!(o.max_turn_angle_rad > 0.0 && o.max_turn_angle_rad < kPi))
+    return bad("max_turn_angle_rad", "must be in (0, pi)");
+  for (auto [v, name] : {std::pair{o.pitch_penalty, "pitch_penalty"}, {o.turn_penalty, "turn_penalty"},
+                         {o.weight_range, "weight_range"}, {o.weight_pitch, "weight_pitch"},
+                         {o.weight_turn, "weight_turn"}, {o.weight_altitude, "weight_altitude"},
+                         {o.lambda_individual, "lambda_individual"},
+                         {o.lambda_collision, "lambda_collision"}, {o.climb_current, "climb_current"},
+                         {o.turn_current, "turn_current"}, {o.speed_current, "speed_current"}})
+    if (!finite_nonneg(v)) return bad(name, "must be finite and >= 0");
+  if (!(o.collision_soft_distance_m > 0.0 && std::isfinite(o.collision_soft_distance_m)))
+    return bad("collision_soft_distance_m", "must be > 0");
+  if (!(o.altitude_scale_m > 0.0 && std::isfinite(o.altitude_scale_m)))
+    return bad("altitude_scale_m", "must be > 0");
+  if (!(o.tolerance > 0.0)) return bad("tolerance", "must be > 0");
+  if (!(o.constraint_tolerance > 0.0)) return bad("constraint_tolerance", "must be > 0");
+  if (o.max_iterations < 1) return bad("max_iterations", "must be >= 1");
+  if (o.max_refinements < 0) return bad("max_refinements", "must be >= 0");
+  if (!(o.time_budget_s > 0.0)) return bad("time_budget_s", "must be > 0");
+  if (o.lbfgs_history < 1) return bad("lbfgs_history", "must be >= 1");
+  if (!(o.validation_terrain_step_m > 0.0 && o.validation_terrain_step_m <= 5.0))
+    return bad("validation_terrain_step_m", "must be in (0, 5] m");
+  if (!(o.validation_separation_period_s > 0.0)) return bad("validation_separation_period_s", "must be > 0");
+  return "";
+}
+
+std::string check_uav(const TrajectoryUav& u, int i, const world::Terrain& terrain,
+                      const TrajectoryOptimizerOptions& o) {
+  const std::string root = fmt::format("uavs[{}]", i);
+  const auto& path = u.initial_path_m;
+  if (path.size() < 2) return root + ".initial_path_m: needs at least 2 points";
+  for (std::size_t k = 0; k < path.size(); ++k)
+    if (!path[k].allFinite()) return fmt::format("{}.initial_path_m[{}]: not finite", root, k);
+  const int last = static_cast<int>(path.size()) - 1;
+  for (std::size_t m = 0; m < u.target_indices.size(); ++m) {
+    const int t = u.target_indices[m];
+    if (t <= 0 || t > last || (m > 0 && t <= u.target_indices[m - 1]))
+      return fmt::format("{}.target_indices[{}]: {} must be in (0, {}] and increasing", root, m, t, last);
+  }
+  if (!u.target_indices.empty() && u.target_indices.back() != last)
+    return fmt::format("{}.target_indices: the last target must be the path's last point ({})", root, last);
+  const auto& v = u.vehicle;
+  if (!(v.cruise_speed_m_s > 0.0 && std::isfinite(v.cruise_speed_m_s)))
+    return root + ".vehicle.cruise_speed_m_s: must be > 0";
+  if (!(v.speed_band_m_s >= 0.0 && v.speed_band_m_s < v.cruise_speed_m_s))
+    return root + ".vehicle.speed_band_m_s: must be in [0, cruise speed)";
+  if (!(v.max_climb_rate_m_s > 0.0 && std::isfinite(v.max_climb_rate_m_s)))
+    return root + ".vehicle.max_climb_rate_m_s: must be > 0";
+  if (!(v.max_pitch_rad > 0.0 && v.max_pitch_rad < kPi / 2))
+    return root + ".vehicle.max_pitch_rad: must be in (0, pi/2)";
+  // The start and the targets are fixed waypoints: they must satisfy eq. 14 and 19–20 themselves.
+  std::vector<int> fixed = {0};
+  fixed.insert(fixed.end(), u.target_indices.begin(), u.target_indices.end());
+  if (u.target_indices.empty()) fixed.push_back(last);
+  const double floor_m = o.terrain_clearance_m + terrain.model_error_m();
+  for (int k : fixed) {
+    const Vec3& p = path[k];
+    const std::string what = k == 0 ? "start" : "target";
+    if (p.z() < o.min_altitude_m || p.z() > o.max_altitude_m)
+      return fmt::format("{}.initial_path_m[{}]: {} altitude {:.1f} m outside [{:.1f}, {:.1f}] m (eq. 14)",
+                         root, k, what, p.z(), o.min_altitude_m, o.max_altitude_m);
+    const double clearance = p.z() - terrain.height(p.x(), p.y());
+    if (clearance < floor_m)
+      return fmt::format("{}.initial_path_m[{}]: {} is {:.2f} m above the terrain, below the "
+                         "required {:.2f} m (eq. 19-20)",
+                         root, k, what, clearance, floor_m);
+  }
+  return "";
+}
+
+// Cruise time of each initial segment: max(ℓ/v0, |Δz|/w_max).
+double segment_time(const Vec3& a, const Vec3& b, const vehicle::VehicleParams& v, bool climb) {
+  const double t_h = (b - a).head<2>().norm() / v.cruise_speed_m_s;
+  const double t_z = climb ? std::abs(b.z() - a.z()) / v.max_climb_rate_m_s : 0.0;
+  return std::max(t_h, t_z);
+}
+
+struct Legs {
+  std::vector<int> ends;        // index into the path of each leg's end (targets)
+  std::vector<double> times_s;  // cruise time of each leg
+};
+
+Legs legs_of(const TrajectoryUav& u, bool climb) {
+  Legs legs;
+  legs.ends = u.target_indices;
+  if (legs.ends.empty()) legs.ends.push_back(static_cast<int>(u.initial_path_m.size()) - 1);
+  int begin = 0;
+  for (int end : legs.ends) {
+    double t = 0.0;
+    for (int k = begin; k < end; ++k)
+      t += segment_time(u.initial_path_m[k], u.initial_path_m[k + 1], u.vehicle, climb);
+    legs.times_s.push_back(t);
+    begin = end;
+  }
+  return legs;
+}
+
+// UAV u on the grid of step dt: each leg resampled at equal times (file comment of the header).
+GridUav make_grid(const TrajectoryUav& u, const Legs& legs, double dt, bool climb) {
+  GridUav g;
+  g.name = u.name;
+  const auto& v = u.vehicle;
+  g.nominal_length_m = v.cruise_speed_m_s * dt;
+  g.max_length_m = v.max_speed_m_s() * dt;
+  g.max_climb_m = v.max_climb_rate_m_s * dt;
+  g.tan_max_pitch = std::tan(v.max_pitch_rad);
+  g.pitch_rows = !(climb && g.max_climb_m <= g.tan_max_pitch * g.nominal_length_m);
+  g.guess_m.push_back(u.initial_path_m.front());
+  g.fixed.push_back(1);
+  int begin = 0;
+  for (std::size_t leg = 0; leg < legs.ends.size(); ++leg) {
+    const int end = legs.ends[leg];
+    const double t_leg = legs.times_s[leg];
+    // Round to the grid, but never so few segments that the guess exceeds v0 + Δv.
+    int n = std::max(1, static_cast<int>(std::lround(t_leg / dt)));
+    n = std::max(n, static_cast<int>(std::ceil(t_leg * v.cruise_speed_m_s / (v.max_speed_m_s() * dt) - 1e-9)));
+    int k = begin;
+    double t_k = 0.0;  // cruise time at path point k
+    for (int j = 1; j <= n; ++j) {
+      if (j == n) {
+        g.guess_m.push_back(u.initial_path_m[end]);
+        g.fixed.push_back(1);
+        break;
+      }
+      const double t = t_leg * j / n;
+      double t_seg = segment_time(u.initial_path_m[k], u.initial_path_m[k + 1], v, climb);
+      while (k + 1 < end && t_k + t_seg < t) {
+        t_k += t_seg;
+        ++k;
+        t_seg = segment_time(u.initial_path_m[k], u.initial_path_m[k + 1], v, climb);
+      }
+      const double s = t_seg > 0.0 ? std::clamp((t - t_k) / t_seg, 0.0, 1.0) : 0.0;
+      g.guess_m.push_back(u.initial_path_m[k] + s * (u.initial_path_m[k + 1] - u.initial_path_m[k]));
+      g.fixed.push_back(0);
+    }
+    begin = end;
+  }
+  for (int k = 0; k < g.segments(); ++k) {
+    const double guess = (g.guess_m[k + 1] - g.guess_m[k]).head<2>().norm();
+    g.min_length_m.push_back(std::min(v.min_speed_m_s() * dt, 0.5 * guess));
+  }
+  return g;
+}
+
+Vec3 held(const GridUav& u, int k) { return u.guess_m[std::min(k, u.segments())]; }
+bool held_fixed(const GridUav& u, int k) { return u.fixed[std::min(k, u.segments())] != 0; }
+
+std::vector<TimedPath> timed_paths(const std::vector<GridUav>& grid,
+                                   const std::vector<std::vector<Vec3>>& waypoints, double dt) {
+  std::vector<TimedPath> out(grid.size());
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    out[i].name = grid[i].name;
+    out[i].waypoints_m = waypoints[i];
+    for (std::size_t k = 0; k < waypoints[i].size(); ++k) out[i].times_s.push_back(k * dt);
+  }
+  return out;
+}
+
+TrajectoryStatus status_of(Ipopt::SolverReturn s) {
+  switch (s) {
+    case Ipopt::SUCCESS:
+    case Ipopt::STOP_AT_ACCEPTABLE_POINT: return TrajectoryStatus::kSolved;
+    case Ipopt::LOCAL_INFEASIBILITY: return TrajectoryStatus::kInfeasible;
+    case Ipopt::MAXITER_EXCEEDED: return TrajectoryStatus::kIterationLimit;
+    case Ipopt::CPUTIME_EXCEEDED: return TrajectoryStatus::kTimeLimit;
+    default: return TrajectoryStatus::kSolverError;
+  }
+}
+
+}  // namespace
+
+std::string_view to_string(TrajectoryStatus status) {
+  switch (status) {
+    case TrajectoryStatus::kSolved: return "solved";
+    case TrajectoryStatus::kSolvedAfterRefinement: return "solved after refinement";
+    case TrajectoryStatus::kInfeasible: return "infeasible";
+    case TrajectoryStatus::kIterationLimit: return "iteration limit";
+    case TrajectoryStatus::kTimeLimit: return "time limit";
+    case TrajectoryStatus::kInvalidInput: return "invalid input";
+    case TrajectoryStatus::kValidationFailed: return "validation failed";
+    case TrajectoryStatus::kSolverError: return "solver error";
+  }
+  return "unknown";
+}
+
+TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
+                                       const TrajectoryOptimizerOptions& options) {
+  const auto t_start = Clock::now();
+  TrajectoryResult result;
+  auto fail = [&](TrajectoryStatus status, std::string message) {
+    result.status = status;
+    result.message = std::move(message);
+    result.paths.clear();
+    result.costs.clear();
+    result.total_time_s = seconds_since(t_start);
+    return result;
+  };
+
+  // Input.
+  if (problem.terrain == nullptr) return fail(TrajectoryStatus::kInvalidInput, "problem.terrain: missing");
+  if (problem.uavs.empty()) return fail(TrajectoryStatus::kInvalidInput, "problem.uavs: empty");
+  if (std::string e = check_options(options); !e.empty()) return fail(TrajectoryStatus::kInvalidInput, e);
+  const world::Terrain& terrain = *problem.terrain;
+  const int n_uav = static_cast<int>(problem.uavs.size());
+  for (int i = 0; i < n_uav; ++i)
+    if (std::string e = check_uav(problem.uavs[i], i, terrain, options); !e.empty())
+      return fail(TrajectoryStatus::kInvalidInput, e);
+
+  // Shared time grid and initial guesses.
+  const bool climb = options.enforce_climb_rate;
+  std::vector<Legs> legs;
+  double t_max = 0.0;
+  for (int i = 0; i < n_uav; ++i) {
+    legs.push_back(legs_of(problem.uavs[i], climb));
+    double t = 0.0;
+    for (std::size_t m = 0; m < legs[i].times_s.size(); ++m) {
+      if (!(legs[i].times_s[m] > 0.0))
+        return fail(TrajectoryStatus::kInvalidInput,
+                    fmt::format("uavs[{}].target_indices[{}]: the target coincides with the "
+                                "previous point of the route",
+                                i, m));
+      t += legs[i].times_s[m];
+    }
+    t_max = std::max(t_max, t);
+  }
+  const double dt = options.time_step_s > 0.0 ? options.time_step_s : t_max / options.waypoints_per_uav;
+  result.time_step_s = dt;
+  std::vector<GridUav> grid;
+  int max_index = 0;
+  for (int i = 0; i < n_uav; ++i) {
+    grid.push_back(make_grid(problem.uavs[i], legs[i], dt, climb));
+    max_index = std::max(max_index, grid[i].segments());
+  }
+
+  // Points fixed at the same time (starts, targets, finished UAVs holding) must already be
+  // separated: no optimization can move them (eq. 21).
+  for (int a = 0; a < n_uav; ++a)
+    for (int b = a + 1; b < n_uav; ++b)
+      for (int k = 0; k <= max_index; ++k) {
+        if (!held_fixed(grid[a], k) || !held_fixed(grid[b], k)) continue;
+        const double d = (held(grid[a], k) - held(grid[b], k)).norm();
+        if (d < options.separation_m) {
+          const Vec3 p = held(grid[a], k);
+          const Vec3 q = held(grid[b], k);
+          return fail(TrajectoryStatus::kInfeasible,
+                      fmt::format("separation (eq. 21): UAVs {} and {} are both fixed at t = {:.1f} s "
+                                  "(start, target or holding at the final point), at ({:.1f}, {:.1f}, "
+                                  "{:.1f}) and ({:.1f}, {:.1f}, {:.1f}), {:.2f} m apart < d_safe = "
+                                  "{:.2f} m",
+                                  grid[a].name, grid[b].name, k * dt, p.x(), p.y(), p.z(), q.x(),
+                                  q.y(), q.z(), d, options.separation_m));
+        }
+      }
+
+  // Candidate pairs/steps (eq. 21 rows and J_col) from the guesses.
+  std::map<std::tuple<int, int, int>, SeparationCandidate> candidates;
+  for (int a = 0; a < n_uav; ++a)
+    for (int b = a + 1; b < n_uav; ++b)
+      for (int k = 0; k <= max_index; ++k) {
+        const Vec3 r0 = held(grid[a], k) - held(grid[b], k);
+        const Vec3 r1 = held(grid[a], k + 1) - held(grid[b], k + 1);
+        const double d = std::min({r0.norm(), r1.norm(), (0.5 * (r0 + r1)).norm()});
+        if (d < options.separation_prefilter_m)
+          candidates[{a, b, k}] = SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
+      }
+
+  NlpSetup setup;
+  setup.terrain = &terrain;
+  setup.uavs = grid;
+  setup.time_step_s = dt;
+  setup.options = options;
+  for (const GridUav& g : grid) {
+    setup.terrain_samples.emplace_back(g.segments(), options.terrain_samples_per_segment);
+    setup.clearance_extra_m.emplace_back(g.guess_m.size(), 0.0);
+  }
+
+  PlanValidationOptions validation;
+  validation.min_altitude_m = options.min_altitude_m;
+  validation.max_altitude_m = options.max_altitude_m;
+  validation.terrain_clearance_m = options.terrain_clearance_m;
+  validation.separation_m = options.separation_m;
+  validation.terrain_step_m = options.validation_terrain_step_m;
+  validation.separation_period_s = options.validation_separation_period_s;
+
+  std::vector<std::vector<Vec3>> previous;
+  for (int round = 0; round <= options.max_refinements; ++round) {
+    setup.candidates.clear();
+    for (const auto& [key, c] : candidates) setup.candidates.push_back(c);
+    const TrajectoryNlp nlp(setup);
+    result.variables = nlp.num_variables();
+    result.constraints = nlp.num_constraints();
+    result.separation_rows = nlp.separation_rows();
+
+    std::vector<double> x0(nlp.num_variables());
+    if (previous.empty()) {
+      nlp.initial_point(x0.data());
+    } else {
+      nlp.pack(previous, x0.data());
+    }
+    const double remaining_s = options.time_budget_s - seconds_since(t_start);
+    if (remaining_s <= 0.0)
+      return fail(TrajectoryStatus::kTimeLimit,
+                  fmt::format("time budget of {:.1f} s exhausted after {} solve(s)",
+                              options.time_budget_s, result.solves));
+
+    Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+    app->Options()->SetIntegerValue("print_level", options.print_level);
+    app->Options()->SetStringValue("sb", "yes");
+    if (!options.exact_hessian) {
+      app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+      app->Options()->SetIntegerValue("limited_memory_max_history", options.lbfgs_history);
+    }
+    app->Options()->SetStringValue("mu_strategy", options.adaptive_barrier ? "adaptive" : "monotone");
+    app->Options()->SetStringValue("nlp_scaling_method", "user-scaling");
+    app->Options()->SetNumericValue("tol", options.tolerance);
+    app->Options()->SetNumericValue("constr_viol_tol", options.constraint_tolerance);
+    app->Options()->SetIntegerValue("max_iter", options.max_iterations);
+    app->Options()->SetNumericValue("max_cpu_time", remaining_s);
+    if (app->Initialize() != Ipopt::Solve_Succeeded)
+      return fail(TrajectoryStatus::kSolverError, "Ipopt failed to initialize");
+    Ipopt::SmartPtr<IpoptAdapter> adapter = new IpoptAdapter(nlp, x0, options.exact_hessian);
+    const auto t_solve = Clock::now();
+    app->OptimizeTNLP(adapter);
+    result.solve_time_s += seconds_since(t_solve);
+    ++result.solves;
+    if (Ipopt::SmartPtr<Ipopt::SolveStatistics> stats = app->Statistics(); IsValid(stats))
+      result.ipopt_iterations += stats->IterationCount();
+
+    const std::vector<double>& x = adapter->x();
+    const std::vector<std::vector<Vec3>> waypoints = nlp.unpack(x.data());
+    std::vector<TimedPath> paths = timed_paths(grid, waypoints, dt);
+    result.validation = validate_plan(terrain, paths, validation);
+
+    const TrajectoryStatus ipopt_status = status_of(adapter->status());
+    if (ipopt_status != TrajectoryStatus::kSolved) {
+      std::string where = nlp.worst_rows(x.data(), 3);
+      if (!result.validation.passed()) where += "; dense check: " + result.validation.violations.front().description;
+      return fail(ipopt_status, fmt::format("Ipopt stopped ({}) in solve {}: {}", to_string(ipopt_status),
+                                            result.solves, where.empty() ? "no violated row" : where));
+    }
+
+    if (result.validation.passed()) {
+      result.status = round == 0 ? TrajectoryStatus::kSolved : TrajectoryStatus::kSolvedAfterRefinement;
+      result.paths = std::move(paths);
+      result.costs = nlp.costs(x.data(), &result.collision_cost);
+      result.objective = nlp.objective(x.data());
+      result.message.clear();
+      result.total_time_s = seconds_since(t_start);
+      return result;
+    }
+
+    // Refine where the dense check failed, then re-solve from this solution.
+    for (const PlanViolation& v : result.validation.violations) {
+      const double extra = v.amount_m + 0.1;
+      if (v.kind == ViolationKind::kTerrainClearance) {
+        const int k = std::min(v.segment, grid[v.uav].segments() - 1);
+        int& samples = setup.terrain_samples[v.uav][k];
+        samples = 2 * samples + 1;
+        for (int p : {k, k + 1}) setup.clearance_extra_m[v.uav][p] += extra;
+      } else if (v.kind == ViolationKind::kSeparation) {
+        const int k = std::clamp(static_cast<int>(std::floor(v.time_s / dt)), 0, max_index);
+        for (int kk : {k - 1, k, k + 1}) {
+          if (kk < 0 || kk > max_index) continue;
+          auto [it, inserted] = candidates.try_emplace(
+              std::tuple{v.uav, v.other_uav, kk},
+              SeparationCandidate{v.uav, v.other_uav, kk, options.separation_samples_per_step, 0.0});
+          it->second.interior_samples = 2 * it->second.interior_samples + 1;
+          it->second.margin_m += extra;
+        }
+      }
+      // Altitude violations cannot be refined: eq. 14 is a variable bound and z is linear on a
+      // segment. They can only come from Ipopt's bound relaxation and are reported as such.
+    }
+    previous = waypoints;
+  }
+  std::string message = fmt::format("every one of {} solve(s) broke a hard constraint in the dense "
+                                    "check; last: {}",
+                                    result.solves, result.validation.summary(3));
+  return fail(TrajectoryStatus::kValidationFailed, message);
+}
+
+}  // namespace ridgeline::planning

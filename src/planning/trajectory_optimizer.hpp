@@ -1,0 +1,218 @@
+// Joint optimization of all UAVs' waypoints (DESIGN §5, paper eq. 14–24), solved with Ipopt,
+// followed by a dense validation that cannot be skipped.
+//
+// Time grid and waypoints. All UAVs share the grid t_k = k·Δt. UAV i has waypoints
+// p_{i,k} = (x, y, z), k = 0 … n_i, reached at t_k. Its initial path (from the path search) is
+// timed at cruise: a segment of horizontal length ℓ and rise Δz takes max(ℓ/v0, |Δz|/w_max)
+// (the climb limit slows steep parts). Δt = T_max / N, T_max the longest UAV's initial time and
+// N = waypoints_per_uav (or Δt = time_step_s when set). Each leg between consecutive targets gets
+// n_leg = max(1, round(T_leg/Δt)) segments, and the initial guess is the leg resampled at equal
+// times, so every target lands on a grid index. p_{i,0} (start) and the waypoint of every target
+// (intermediate and final) are fixed. A UAV that finishes early (n_i < max n) holds at its final
+// point for the separation constraints (it loiters or lands there).
+//
+// Variables: all waypoints (3 per waypoint, fixed ones with equal bounds, which Ipopt removes),
+// one pitch slack s^θ per segment and one turn slack s^φ per interior waypoint.
+// Notation per segment k: d = p_{k+1} − p_k, h = √(d_x² + d_y² + ε²) (ε = 1e-3 m keeps every
+// term smooth), L = √(h² + d_z²), ℓ_i = v0_i·Δt the nominal segment length; per interior waypoint
+// k the horizontal turn angle φ_k between d_{k−1} and d_k, cos φ_k = a·b/(|a||b|) (norms with ε).
+//
+// Hard constraints:
+//  (14)    H_min ≤ z_{i,k} ≤ H_max                                         (variable bounds)
+//  (19–20) z − H(x, y) ≥ h_safe + e + m at every waypoint and at terrain_samples_per_segment
+//          interior points (1−τ)p_k + τp_{k+1}, τ = j/(s+1); e = terrain.model_error_m(),
+//          m = clearance_margin_m (covers the terrain's curvature between samples: for a peak of
+//          height h and width σ, |H''| ≤ 2h/σ², so half a 10 m spacing sags ≤ h·25/σ² m; sharper
+//          terrain is caught by the dense check and refined). Next to a fixed point the margin is
+//          capped at that point's own slack, or the rows would be infeasible by construction.
+//  (21)    |r|² ≥ (d_safe + separation_margin_m)², r = p_{i,k} − p_{j,k}, at every grid index of
+//          a candidate pair, and at separation_samples_per_step interior times of each candidate
+//          step (relative motion is linear in time on a step because the grid is shared).
+//          Candidates: pairs/steps whose initial guesses come within separation_prefilter_m.
+//  speed   ((v0 − Δv)·Δt)² ≤ d_x² + d_y² ≤ ((v0 + Δv)·Δt)², the speed band of eq. 2, so the
+//          grid stays a valid timing; the lower bound is relaxed to half the guess's length where
+//          the guess itself is slower (very short legs).
+//  climb   |d_z| ≤ w_max·Δt (eq. 2), when enforce_climb_rate.
+// Penalty rows (exact penalties of the non-smooth max terms, linear in the slacks):
+//  (15–16) s^θ_k ≥ ±d_z/ℓ − tan θ_max, s^θ_k ≥ 0: s^θ is the grade in excess of tan θ_max, a
+//          smooth surrogate of max(0, |θ| − θ_max) (tan is increasing, so both vanish together).
+//          The grade is taken over the nominal horizontal length ℓ (the pitch flown at cruise
+//          speed), not over h: with h the rows are non-convex (a lateral zig-zag lengthens h and
+//          lowers the grade, "switchbacks"), and with the active multipliers of a steep initial
+//          guess that negative curvature dominated the Hessian and cost hundreds of iterations.
+//          When the climb limit already implies the pitch limit (w_max·Δt ≤ tan θ_max·ℓ, true for
+//          the default vehicle: 3 m/s vs 10 m/s·tan 30°) the penalty is identically zero and its
+//          slacks and rows are left out.
+//  (17–18) s^φ_k ≥ cos φ_max − cos φ_k, s^φ_k ≥ 0: the excess of 1 − cos φ over 1 − cos φ_max,
+//          a smooth surrogate of max(0, φ − φ_max).
+// Costs (all in metres of "equivalent cruise distance", so the weights are unit-free):
+//  (22)    J_L = Σ_k (I_k/I0)·L_k with the current model
+//            I_k/I0 = 1 + κ_climb·σ(d_z)/L_k + κ_turn·½(τ_k + τ_{k+1}) + κ_speed·(h/ℓ − 1)²,
+//          σ(d_z) = ½(d_z + √(d_z² + ε_c²)) the smooth max(d_z, 0), τ_k = 1 − cos φ_k (0 at the
+//          ends): climbing costs κ_climb metres per metre gained, turning and off-cruise speed
+//          raise the current in proportion.
+//  (15–16) J_θ = Σ_k ℓ·((d_z/ℓ)² + K_θ·s^θ_k)        (tan²θ at cruise plus the penalty)
+//  (17–18) J_φ = Σ_k ℓ·(1 − cos φ_k + K_φ·s^φ_k)
+//          J_H = Σ_k ℓ·(z_k − H(x_k, y_k))/altitude_scale_m   (height above ground: stay low)
+//  (23)    J_i = w1·J_L + w2·J_θ + w3·J_φ + w4·J_H
+//  (24)    J = λ1·Σ_i J_i + λ2·J_col,  J_col = Σ_{candidates (i,j,k)} ℓ̄·max(0, 1 − |r|²/D_c²)²,
+//          D_c = collision_soft_distance_m: a C¹ push apart beyond the hard d_safe.
+// Derivatives: exact and sparse. Gradients and Jacobians of the geometric terms come from
+// forward-mode automatic differentiation (ceres::Jet) of small element functions (one segment:
+// 6 variables; one vertex: 9), terrain terms from Terrain::gradient. The Hessian of the
+// Lagrangian is exact too (second-order forward AD of the same element functions; separation
+// and J_col analytic), except ∇²H of the terrain, taken as central differences of
+// Terrain::gradient (step 1e-3 m). Ipopt's limited-memory quasi-Newton Hessian is an option, but
+// with thousands of inequality rows its low-rank updates cost many back-solves per iteration and
+// it needed more than 500 iterations on 3 × 100 (time limit), against ~200-350 with the exact one.
+// Rows in m² (speed band, separation) are scaled by 1/(2·length) for Ipopt (user scaling), so all
+// rows read in metres near their bounds. Barrier update: monotone (adaptive measured slower here).
+//
+// Performance (2-core shared machine, Debian's Ipopt 3.11.9 with MUMPS 5.5 — no HSL solvers): an
+// iteration costs ~4 ms for one UAV × 50 waypoints and ~20 ms for 3 × 100, nearly all of it in
+// MUMPS; 3 × 100 from straight-line guesses takes ~95 iterations, median ≈ 2 s (bench): better
+// than the paper's 4–6 s, but the 0.5 s target is NOT met. Every separation row couples two
+// UAVs and fills the KKT factor, so the candidate prefilter is kept tight (50 m: 150 m gave
+// 2.7k rows and a time limit for 10 × 100); pairs it misses are added by the refinement.
+//
+// Validation and refinement. After every solve the waypoints with their times t_k are checked by
+// validate_plan (plan_validation.hpp): terrain every ≤ 5 m, the altitude band, and separation at
+// every control period (piecewise-linear positions; finished UAVs hold). A violation refines the
+// transcription: the offending segment gets twice the interior terrain samples and its margin
+// grows by the violated amount; an offending pair/step becomes a candidate with twice the interior
+// separation samples and a larger margin; then the problem is re-solved from the last solution.
+// After max_refinements rounds that still fail, the result is kValidationFailed with the
+// violation's constraint, UAV(s), time and place — and no waypoints. A path that breaks a hard
+// constraint is never returned.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/types.hpp"
+#include "planning/plan_validation.hpp"
+#include "vehicle/vehicle_model.hpp"
+#include "world/terrain.hpp"
+
+namespace ridgeline::planning {
+
+/// One UAV's input: its initial path and where its targets are on it.
+struct TrajectoryUav {
+  std::string name;
+  std::vector<Vec3> initial_path_m;  ///< start first, ≥ 2 points, e.g. PathResult::waypoints_m
+  /// Indices into initial_path_m of the targets in visiting order (strictly increasing, > 0);
+  /// the last must be the path's last point. Empty: the last point is the only target.
+  std::vector<int> target_indices;
+  vehicle::VehicleParams vehicle;  ///< v0, Δv, w_max, θ_max are used
+};
+
+struct TrajectoryProblem {
+  const world::Terrain* terrain = nullptr;  ///< must outlive the call
+  std::vector<TrajectoryUav> uavs;
+};
+
+struct TrajectoryOptimizerOptions {
+  // Grid.
+  int waypoints_per_uav = 100;  ///< N: segments of the longest UAV (≥ 2), when time_step_s ≤ 0
+  double time_step_s = 0.0;     ///< Δt if > 0 (overrides waypoints_per_uav)
+  // Hard constraints.
+  double min_altitude_m = 40.0;        ///< H_min, eq. 14
+  double max_altitude_m = 500.0;       ///< H_max
+  double terrain_clearance_m = 20.0;   ///< h_safe, eq. 19–20
+  double separation_m = 10.0;          ///< d_safe, eq. 21
+  double clearance_margin_m = 1.0;     ///< m ≥ 0 added to the clearance rows
+  double separation_margin_m = 0.5;    ///< ≥ 0 added to d_safe in the separation rows
+  int terrain_samples_per_segment = 1;   ///< ≥ 0 interior clearance points per segment
+  int separation_samples_per_step = 1;   ///< ≥ 0 interior separation times per candidate step
+  double separation_prefilter_m = 50.0;  ///< candidate pairs: guesses within this distance
+                                         ///< (misses are caught by the dense check and added)
+  bool enforce_climb_rate = true;        ///< |d_z| ≤ w_max·Δt
+  // Penalties and weights (eq. 15–18, 23–24); defaults are the default scenario's.
+  double max_turn_angle_rad = deg_to_rad(60.0);  ///< φ_max; θ_max comes from each vehicle
+  double pitch_penalty = 100.0;                  ///< K_θ
+  double turn_penalty = 100.0;                   ///< K_φ
+  double weight_range = 1.0;                     ///< w1
+  double weight_pitch = 1.0;                     ///< w2
+  double weight_turn = 1.0;                      ///< w3
+  double weight_altitude = 0.1;                  ///< w4
+  double lambda_individual = 1.0;                ///< λ1
+  double lambda_collision = 10.0;                ///< λ2
+  double collision_soft_distance_m = 30.0;       ///< D_c > d_safe
+  double altitude_scale_m = 100.0;               ///< J_H normalization (> 0)
+  // Current model of eq. 22, relative to the cruise current I0.
+  double climb_current = 5.0;  ///< κ_climb ≥ 0: metres of cruise per metre climbed
+  double turn_current = 0.5;   ///< κ_turn ≥ 0
+  double speed_current = 1.0;  ///< κ_speed ≥ 0
+  // Solver.
+  double tolerance = 1e-5;            ///< Ipopt tol
+  double constraint_tolerance = 1e-6; ///< Ipopt constr_viol_tol (m or m²)
+  int max_iterations = 500;           ///< per solve
+  int max_refinements = 3;            ///< re-solves after a failed validation
+  double time_budget_s = 20.0;        ///< CPU time over all solves
+  bool adaptive_barrier = false;      ///< Ipopt mu_strategy adaptive (else monotone: measured
+                                      ///< fewer, cheaper iterations on these problems)
+  bool exact_hessian = true;          ///< false: Ipopt's limited-memory quasi-Newton
+  int lbfgs_history = 10;             ///< limited_memory_max_history (exact_hessian = false)
+  int print_level = 0;                ///< Ipopt print_level (0: silent, 5: per iteration)
+  // Validation (plan_validation.hpp).
+  double validation_terrain_step_m = 2.0;      ///< ≤ 5
+  double validation_separation_period_s = 0.02; ///< the control period
+};
+
+enum class TrajectoryStatus {
+  kSolved,                 ///< solved; the first solution passed dense validation
+  kSolvedAfterRefinement,  ///< passed after ≥ 1 refinement round
+  kInfeasible,             ///< no feasible plan (Ipopt, or fixed points that violate eq. 21)
+  kIterationLimit,         ///< Ipopt's iteration limit
+  kTimeLimit,              ///< time_budget_s exhausted
+  kInvalidInput,           ///< message is "field: reason"
+  kValidationFailed,       ///< every round broke a hard constraint; message says where
+  kSolverError,            ///< any other Ipopt failure
+};
+std::string_view to_string(TrajectoryStatus status);
+
+/// Cost terms of one UAV at the solution (eq. 15–23), metres-equivalent, before λ1.
+struct UavCost {
+  double range = 0.0;          ///< J_L
+  double pitch = 0.0;          ///< J_θ (including the penalty)
+  double pitch_penalty = 0.0;  ///< its part ℓ·K_θ·Σ s^θ
+  double turn = 0.0;           ///< J_φ (including the penalty)
+  double turn_penalty = 0.0;   ///< its part ℓ·K_φ·Σ s^φ
+  double altitude = 0.0;       ///< J_H
+  double total = 0.0;          ///< J_i = w1 J_L + w2 J_θ + w3 J_φ + w4 J_H
+  double length_m = 0.0;       ///< 3-D length of the waypoint polyline
+  double max_pitch_rad = 0.0;  ///< max |atan(d_z/h)| over segments
+  double max_turn_rad = 0.0;   ///< max φ_k
+};
+
+struct TrajectoryResult {
+  TrajectoryStatus status = TrajectoryStatus::kInvalidInput;
+  std::string message;  ///< empty on success; else what failed, which constraint, where
+
+  double time_step_s = 0.0;              ///< Δt of the shared grid
+  std::vector<TimedPath> paths;          ///< per UAV: waypoints at t_k = k·Δt; empty on failure
+  std::vector<UavCost> costs;            ///< per UAV (filled on success)
+  double collision_cost = 0.0;           ///< J_col
+  double objective = 0.0;                ///< J of eq. 24
+  PlanValidationReport validation;       ///< of the last solution that was validated
+
+  int ipopt_iterations = 0;    ///< over all solves
+  int solves = 0;              ///< 1 + refinement rounds used
+  int variables = 0;           ///< of the last NLP (including fixed waypoints)
+  int constraints = 0;
+  int separation_rows = 0;
+  double solve_time_s = 0.0;   ///< Ipopt, all solves
+  double total_time_s = 0.0;   ///< everything, including setup and validation
+
+  bool ok() const {
+    return status == TrajectoryStatus::kSolved || status == TrajectoryStatus::kSolvedAfterRefinement;
+  }
+};
+
+/// Optimizes all UAVs' waypoints jointly (file comment). Never throws on bad data: see status.
+TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
+                                       const TrajectoryOptimizerOptions& options = {});
+
+}  // namespace ridgeline::planning
