@@ -1,26 +1,59 @@
-// `ridgeline run [--scenario FILE] --out DIR`: the main job. It loads and validates the
+// `ridgeline run [--scenario FILE] [--out DIR]`: the main job. It loads and validates the
 // scenario (the embedded default without --scenario), plans every UAV's reference with the
-// global planner and writes DIR/summary.json and DIR/plan.json. The closed-loop flight
-// (simulator, agents, metrics) is the next stage of this command.
+// global planner, flies the mission in closed loop (truth world, one agent per UAV talking
+// only through the transport, sudden threats, wind) and writes DIR/summary.json,
+// DIR/plan.json, DIR/metrics.json and DIR/trajectories.csv. Progress goes to stderr, a short
+// table to stdout. Exit 0 when the flight was safe, 4 when a safety metric failed (the outputs
+// are still written: they are the evidence).
 #include <iostream>
+
+#include <fmt/format.h>
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
 #include "io/plan_file.hpp"
 #include "io/scenario_summary.hpp"
+#include "sim/mission.hpp"
 
 namespace ridgeline::apps {
+namespace {
+
+std::string metrics_table(const sim::MissionMetrics& m) {
+  std::string out = fmt::format("{:<8} {:>9} {:>10} {:>12} {:>8} {:>8}\n", "uav", "path_m",
+                                "track_rmse", "min_clear_m", "targets", "replans");
+  for (const sim::UavMetrics& u : m.uavs) {
+    out += fmt::format("{:<8} {:>9.0f} {:>10.2f} {:>12.1f} {:>5}/{:<2} {:>8}\n", u.name,
+                       u.path_length_m, u.tracking_rmse_m, u.min_terrain_clearance_m,
+                       u.targets_inspected, u.targets_assigned, u.replans);
+  }
+  out += fmt::format(
+      "min separation {:.1f} m, min threat distance {:.1f} m, threats {} encountered / {} "
+      "intruded, terrain collisions {}, constraint violations {}\n",
+      m.min_separation_m, m.min_threat_distance_m, m.threat_encounters, m.threat_intrusions,
+      m.terrain_collisions, m.total_constraint_violations());
+  out += fmt::format(
+      "mission {} in {:.1f} s simulated, {:.1f} s wall ({:.0f}x real time); MPC step median "
+      "{:.0f} us, p99 {:.0f} us\n",
+      m.mission_complete ? "complete" : "NOT complete", m.sim_time_s, m.wall_time_s,
+      m.wall_time_s > 0 ? m.sim_time_s / m.wall_time_s : 0.0, m.mpc_solve_us.median,
+      m.mpc_solve_us.p99);
+  return out;
+}
+
+}  // namespace
 
 void register_run_command(CLI::App& app) {
   struct Args {
     std::string scenario;
     std::string out = "out";
+    bool quiet = false;
   };
   auto args = std::make_shared<Args>();
-  CLI::App* run = app.add_subcommand("run", "Run the mission on a scenario (default: embedded)");
+  CLI::App* run = app.add_subcommand("run", "Plan and fly the mission (default: embedded scenario)");
   run->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   run->add_option("--out", args->out, "Output folder")->capture_default_str();
+  run->add_flag("--quiet", args->quiet, "No progress on stderr");
   run->callback([args] {
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     nlohmann::json summary = io::summarize(loaded);
@@ -28,16 +61,42 @@ void register_run_command(CLI::App& app) {
     const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
     if (!plan) return;
     std::cout << io::plan_summary_text(*plan, loaded.scenario);
+
+    sim::MissionOptions options;
+    if (!args->quiet) {
+      options.progress = [](double t, double duration) {
+        if (static_cast<int>(t) % 10 == 0)
+          std::cerr << fmt::format("\rflying: t = {:5.0f} s of at most {:.0f} s", t, duration)
+                    << std::flush;
+      };
+    }
+    const sim::MissionResult flown = sim::fly_mission(loaded.scenario, loaded.terrain, *plan, options);
+    if (!args->quiet) std::cerr << '\n';
+    const sim::MissionMetrics& m = flown.metrics;
+    std::cout << metrics_table(m);
+
     const nlohmann::json plan_json = io::plan_to_json(*plan, loaded.scenario);
     summary["plan"] = {{"status", plan_json["status"]},
                        {"solve_time_s", plan_json["solve_time_s"]},
                        {"cost", plan_json["cost"]},
                        {"validation", plan_json["validation"]}};
+    const nlohmann::json metrics = sim::to_json(m);
+    summary["flight"] = {{"mission_complete", m.mission_complete},
+                         {"safe", m.safe()},
+                         {"sim_time_s", m.sim_time_s},
+                         {"wall_time_s", m.wall_time_s}};
     const std::filesystem::path dir(args->out);
     io::write_file_atomically(dir / "plan.json", plan_json.dump() + "\n");
+    io::write_file_atomically(dir / "metrics.json", metrics.dump(2) + "\n");
+    io::write_file_atomically(dir / "trajectories.csv",
+                              sim::trajectories_csv(flown.trajectories, loaded.scenario));
     io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
-    std::cout << "wrote " << (dir / "summary.json").string() << " and "
-              << (dir / "plan.json").string() << '\n';
+    std::cout << "wrote summary.json, plan.json, metrics.json and trajectories.csv to "
+              << dir.string() << '\n';
+    if (!m.safe()) {
+      std::cerr << "error: the flight broke a safety constraint (see metrics.json)\n";
+      set_exit_code(4);
+    }
   });
 }
 

@@ -227,6 +227,13 @@ void parse_simulation(YamlMap& m, sim::SimulationConfig& s) {
   s.message_rate_hz = m.get_double("message_rate_hz", s.message_rate_hz);
   s.truth_time_constant_scale = m.get_double("truth_time_constant_scale", s.truth_time_constant_scale);
   s.position_noise_m = m.get_double("position_noise_m", s.position_noise_m);
+  if (auto link = m.optional("link")) {
+    YamlMap lm = link->as_map();
+    s.link_latency_s = lm.get_double("latency_s", s.link_latency_s);
+    s.link_jitter_s = lm.get_double("jitter_s", s.link_jitter_s);
+    s.link_drop_rate = lm.get_double("drop_rate", s.link_drop_rate);
+    lm.finish();
+  }
   m.finish();
 }
 

@@ -24,26 +24,7 @@ double thread_cpu_us() {
   return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
 }
 
-nlohmann::json to_json(const Percentiles& p) {
-  return {{"median", p.median}, {"p90", p.p90}, {"p99", p.p99}, {"max", p.max}};
-}
-
 }  // namespace
-
-Percentiles percentiles(std::vector<double> v) {
-  Percentiles p;
-  if (v.empty()) return p;
-  std::sort(v.begin(), v.end());
-  auto at = [&](double q) {
-    const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
-    return v[std::clamp<std::size_t>(rank, 1, v.size()) - 1];
-  };
-  p.median = at(0.5);
-  p.p90 = at(0.9);
-  p.p99 = at(0.99);
-  p.max = v.back();
-  return p;
-}
 
 nlohmann::json MpcBenchmarkReport::to_json() const {
   return {{"steps", steps},

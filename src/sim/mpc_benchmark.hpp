@@ -11,15 +11,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "sim/statistics.hpp"
+
 namespace ridgeline::sim {
 
 struct MpcBenchmarkOptions {
   int steps = 3000;       ///< control steps (60 s at 50 Hz)
   int ipopt_every = 10;   ///< compare with Ipopt on every n-th QP (0: never)
-};
-
-struct Percentiles {
-  double median = 0.0, p90 = 0.0, p99 = 0.0, max = 0.0;
 };
 
 struct MpcBenchmarkReport {
@@ -41,8 +39,5 @@ struct MpcBenchmarkReport {
 };
 
 MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options = {});
-
-/// Percentiles of a sample (sorted copy; nearest-rank).
-Percentiles percentiles(std::vector<double> values);
 
 }  // namespace ridgeline::sim

@@ -213,6 +213,10 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
   c.positive("simulation.message_rate_hz", sim.message_rate_hz);
   c.positive("simulation.truth_time_constant_scale", sim.truth_time_constant_scale);
   c.non_negative("simulation.position_noise_m", sim.position_noise_m);
+  c.non_negative("simulation.link.latency_s", sim.link_latency_s);
+  c.non_negative("simulation.link.jitter_s", sim.link_jitter_s);
+  if (!(sim.link_drop_rate >= 0.0 && sim.link_drop_rate < 1.0))
+    c.fail("simulation.link.drop_rate", fmt::format("{} is outside [0, 1)", sim.link_drop_rate));
   return c.problems;
 }
 

@@ -81,10 +81,10 @@ struct MpcConfig {
   double prediction_step_s = 0.1;    ///< Δt of the prediction model, may exceed the period
   int horizon_steps = 40;            ///< Np
   int control_horizon_steps = 10;    ///< Nc ≤ Np
-  double position_weight = 1.0;      ///< Q on each position output
-  Vec3 move_weights = Vec3(0.5, 5.0, 1.0);  ///< R̄ on Δv_c, Δω_c, Δw_c
-  Vec3 max_moves = Vec3(1.0, 0.5, 1.0);     ///< |Δu| per prediction step
-  double slack_weight = 1e5;         ///< penalty on soft-constraint slack
+  double position_weight = 1.0;      ///< Q on each position output, per m²
+  Vec3 move_weights = Vec3(2.0, 200.0, 2.0);  ///< R on Δv_c, Δω_c, Δw_c per prediction step
+  Vec3 max_moves = Vec3(0.4, 0.15, 0.4);      ///< |Δu| per prediction step (rate × Δt_p)
+  double slack_weight = 1e4;         ///< ρ₁: linear penalty per metre of soft-row slack
 };
 
 /// Parameters of the global cooperative planner (DESIGN §5, eq. 14–24).
@@ -107,6 +107,10 @@ struct SimulationConfig {
   double message_rate_hz = 100.0;
   double truth_time_constant_scale = 1.2;  ///< truth τ = scale × controller τ (model mismatch)
   double position_noise_m = 0.1;           ///< std of each component of a position fix
+  /// The inter-UAV link (latency, jitter and so reordering, loss) of the in-process transport.
+  double link_latency_s = 0.005;
+  double link_jitter_s = 0.005;
+  double link_drop_rate = 0.0;
 };
 
 struct Scenario {

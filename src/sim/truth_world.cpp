@@ -34,6 +34,15 @@ void TruthWorld::set_command(int uav, const vehicle::Input& command) {
   uavs_[static_cast<std::size_t>(uav)].command = command;
 }
 
+void TruthWorld::hold(int uav) {
+  TruthUav& u = uavs_[static_cast<std::size_t>(uav)];
+  u.holding = true;
+  u.state[vehicle::kV] = 0.0;
+  u.state[vehicle::kOmega] = 0.0;
+  u.state[vehicle::kW] = 0.0;
+  u.command = vehicle::Input::Zero();
+}
+
 void TruthWorld::advance_to(double t_s) {
   while (time_s_ < t_s) {
     const double dt = std::min(step_s_, t_s - time_s_);
@@ -43,6 +52,7 @@ void TruthWorld::advance_to(double t_s) {
       break;
     }
     for (TruthUav& u : uavs_) {
+      if (u.holding) continue;
       // The wind is sampled at the step's start: its correlation time (seconds) is far
       // longer than the 5 ms step.
       const Vec3 w = wind_.at(u.state.head<3>(), time_s_);

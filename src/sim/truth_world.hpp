@@ -30,6 +30,10 @@ class TruthWorld {
 
   /// Sets the command a UAV's flight controller follows from now on.
   void set_command(int uav, const vehicle::Input& command);
+  /// The UAV stops and holds its position from now on (a multirotor hovering at the end of its
+  /// mission); it is no longer integrated and its rates read zero.
+  void hold(int uav);
+  bool holding(int uav) const { return uavs_[static_cast<std::size_t>(uav)].holding; }
   /// Integrates every UAV up to time t_s with fixed RK4 steps of 1/truth_rate_hz (the last
   /// step may be shorter, so any t_s is reached exactly).
   void advance_to(double t_s);
@@ -59,6 +63,7 @@ class TruthWorld {
     vehicle::VehicleParams truth_params;
     double sensor_range_m;
     world::WindSensor anemometer;
+    bool holding = false;
   };
 
   std::shared_ptr<const world::Terrain> terrain_;

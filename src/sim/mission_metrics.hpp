@@ -1,0 +1,72 @@
+// What a flown mission is judged by (DESIGN §6, issue "main job" part 5). Everything here is
+// measured on the truth (true positions, the threats' true motion), never on what the agents
+// believe.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/statistics.hpp"
+
+namespace ridgeline::sim {
+
+struct UavMetrics {
+  std::string name;
+  double path_length_m = 0.0;
+  /// Reference (what the agent tracked, including its local re-plans) against the actual
+  /// position at equal times, sampled every 10 m of flown path.
+  double tracking_rmse_m = 0.0;
+  double tracking_mse_m2 = 0.0;
+  int tracking_samples = 0;
+  double min_terrain_clearance_m = 0.0;
+  int targets_assigned = 0;
+  int targets_inspected = 0;
+  std::vector<std::string> missed_targets;
+  bool finished = false;
+  double finish_time_s = -1.0;
+  // The agent's own counters.
+  long long replans = 0;
+  long long replan_failures = 0;
+  long long rejoins = 0;
+  long long fallback_steps = 0;
+  long long qp_failures = 0;
+  long long stale_neighbour_steps = 0;
+  long long messages_rejected = 0;
+  double max_slack_m = 0.0;
+};
+
+struct MissionMetrics {
+  std::vector<UavMetrics> uavs;
+  double min_separation_m = 0.0;       ///< over pairs and time; +inf for one UAV (→ null)
+  double min_threat_distance_m = 0.0;  ///< to the threat surface; +inf without threats
+  int threat_encounters = 0;           ///< (UAV, threat) pairs where the UAV sensed it
+  int threat_intrusions = 0;           ///< (UAV, threat) pairs that ever were inside it
+  int threat_margin_violations = 0;    ///< pairs that came inside R + r_safe (not a collision)
+  double avoidance_success_rate = 1.0; ///< (encounters − intrusions)/encounters; 1 if none
+  int terrain_collisions = 0;          ///< UAVs that ever were below the terrain
+  int separation_violations = 0;       ///< pairs that ever came closer than d_safe
+  std::map<std::string, int> constraint_violations;  ///< control steps per kind
+  /// Flown turn radius v/|ω| at its smallest (the truth, lags included) and the largest
+  /// ratio of the commanded |ω_c| to its limit v/R_min at the true speed when it was issued.
+  double min_turn_radius_m = 0.0;
+  double max_turn_command_ratio = 0.0;
+  Percentiles mpc_solve_us;             ///< the whole MPC step (linearize, build, solve)
+  Percentiles qp_iterations;
+  double global_plan_s = 0.0;
+  double sim_time_s = 0.0;
+  double wall_time_s = 0.0;
+  bool mission_complete = false;       ///< every UAV finished with every target inspected
+  long long messages_published = 0;
+  long long messages_dropped = 0;
+
+  /// Zero terrain collisions, threat intrusions, separation and hard constraint violations.
+  bool safe() const;
+  int total_constraint_violations() const;
+};
+
+nlohmann::json to_json(const MissionMetrics& metrics);
+
+}  // namespace ridgeline::sim

@@ -1,0 +1,301 @@
+#include "swarm/agent.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/error.hpp"
+
+namespace ridgeline::swarm {
+
+const char* to_string(AgentMode mode) {
+  switch (mode) {
+    case AgentMode::kTracking: return "tracking";
+    case AgentMode::kFallback: return "fallback";
+    case AgentMode::kFinished: return "finished";
+  }
+  return "unknown";
+}
+
+namespace {
+
+void require(bool ok, const char* field, const char* reason) {
+  if (!ok) throw InputError(field, reason);
+}
+
+double wrap_angle(double a) { return std::remainder(a, 2.0 * kPi); }
+
+/// The delayed plan without the detour: what a new detour is built around.
+class DelayedPlan : public mpc::ReferenceTrajectory {
+ public:
+  explicit DelayedPlan(const AgentReference& r) : r_(r) {}
+  mpc::ReferencePoint at(double t_s) const override { return r_.plan_at(t_s); }
+
+ private:
+  const AgentReference& r_;
+};
+
+}  // namespace
+
+Agent::Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledReference> plan,
+             std::shared_ptr<const world::Terrain> terrain)
+    : options_(options),
+      terrain_(std::move(terrain)),
+      reference_(std::make_shared<AgentReference>(std::move(plan))),
+      tracker_(options.tracker) {
+  require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
+  require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
+  require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
+  require(options.threat_report_period_s > 0.0, "threat_report_period_s", "must be positive");
+  require(options.replan_period_s > 0.0, "replan_period_s", "must be positive");
+  require(options.rejoin_distance_m > 0.0 && options.lost_reference_m > options.rejoin_distance_m,
+          "lost_reference_m", "must exceed rejoin_distance_m > 0");
+  require(options.position_filter_gain > 0.0 && options.position_filter_gain <= 1.0,
+          "position_filter_gain", "must be in (0, 1]");
+  require(options.fallback_after_failures >= 1, "fallback_after_failures", "must be at least 1");
+  require(options.recover_after_successes >= 1, "recover_after_successes", "must be at least 1");
+  require(terrain_ != nullptr, "terrain", "is required");
+  for (const AgentTarget& target : options.targets) {
+    require(target.position_m.allFinite(), "targets.position_m", "must be finite");
+    require(target.radius_m > 0.0 && target.altitude_band_m > 0.0, "targets.radius_m",
+            "radius and altitude band must be positive");
+  }
+  last_command_ = vehicle::Input(options.tracker.vehicle.cruise_speed_m_s, 0.0, 0.0);
+}
+
+void Agent::receive(const Envelope& envelope) {
+  ++counters_.messages_received;
+  if (check_message(envelope.message, options_.num_uavs).has_value() ||
+      envelope.sender < 0 || envelope.sender >= options_.num_uavs ||
+      envelope.sender == options_.id) {
+    ++counters_.messages_rejected;
+    return;
+  }
+  if (const auto* p = std::get_if<PredictedTrajectory>(&envelope.message)) {
+    if (p->uav != envelope.sender || p->positions_m.empty()) {
+      ++counters_.messages_rejected;
+      return;
+    }
+    auto it = neighbours_.find(p->uav);
+    if (it != neighbours_.end() && it->second.stamp_s >= p->stamp_s) return;  // reordered
+    KnownNeighbour& n = neighbours_[p->uav];
+    n.stamp_s = p->stamp_s;
+    n.prediction.uav_id = p->uav;
+    n.prediction.first_time_s = p->stamp_s + p->step_s;
+    n.prediction.step_s = p->step_s;
+    n.prediction.positions_m = p->positions_m;
+  } else if (const auto* r = std::get_if<ThreatReport>(&envelope.message)) {
+    auto it = threats_.find(r->threat_id);
+    if (it != threats_.end() && it->second.threat.appear_s >= r->stamp_s) return;
+    const bool is_new = it == threats_.end();
+    KnownThreat& k = threats_[r->threat_id];
+    k.threat.name = fmt::format("threat{}", r->threat_id);
+    k.threat.centre_m = r->centre_m;
+    k.threat.velocity_m_s = r->velocity_m_s;
+    k.threat.radius_m = r->radius_m;
+    k.threat.appear_s = r->stamp_s;
+    k.confirmed_s = std::max(k.confirmed_s, r->stamp_s);
+    if (is_new) replan_requested_ = true;
+  }
+  // StateReport and ReferencePlan are for the ground station; an agent ignores them.
+}
+
+void Agent::sense(double t_s, std::span<const ThreatObservation> observations,
+                  std::vector<Message>& outbox) {
+  for (const ThreatObservation& o : observations) {
+    auto it = threats_.find(o.threat_id);
+    const bool is_new = it == threats_.end();
+    KnownThreat& k = threats_[o.threat_id];
+    k.threat.name = fmt::format("threat{}", o.threat_id);
+    k.threat.centre_m = o.centre_m;
+    k.threat.velocity_m_s = o.velocity_m_s;
+    k.threat.radius_m = o.radius_m;
+    k.threat.appear_s = t_s;
+    k.confirmed_s = t_s;
+    if (is_new) replan_requested_ = true;
+    if (t_s - k.last_reported_s >= options_.threat_report_period_s - 1e-9) {
+      k.last_reported_s = t_s;
+      outbox.push_back(ThreatReport{options_.id, o.threat_id, t_s, o.centre_m, o.velocity_m_s,
+                                    o.radius_m});
+      ++counters_.threat_reports_sent;
+    }
+  }
+}
+
+std::vector<world::Threat> Agent::known_threats() const {
+  std::vector<world::Threat> out;
+  for (const auto& [id, k] : threats_) out.push_back(k.threat);
+  return out;
+}
+
+void Agent::forget_old_threats(double t_s) {
+  for (auto it = threats_.begin(); it != threats_.end();) {
+    if (t_s - it->second.confirmed_s > options_.threat_forget_s) {
+      it = threats_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+void Agent::update_mission(double t_s, const Vec3& position_m) {
+  const int n = static_cast<int>(options_.targets.size());
+  while (next_target_ < n) {
+    const AgentTarget& target = options_.targets[static_cast<std::size_t>(next_target_)];
+    if ((position_m - target.position_m).norm() > target.radius_m ||
+        std::abs(position_m.z() - target.position_m.z()) > target.altitude_band_m)
+      break;
+    ++next_target_;
+  }
+  if (next_target_ == n) {
+    if (n > 0 || t_s >= reference_->plan_end_time_s()) mode_ = AgentMode::kFinished;
+    return;
+  }
+  if (t_s > reference_->plan_end_time_s() + options_.missed_after_s) {
+    for (int k = next_target_; k < n; ++k)
+      missed_.push_back(options_.targets[static_cast<std::size_t>(k)].name);
+    mode_ = AgentMode::kFinished;
+  }
+}
+
+void Agent::replan(double t_s, const Vec3& position_m) {
+  last_replan_s_ = t_s;
+  replan_requested_ = false;
+  // Far behind (or off) the reference after an avoidance: re-join the validated path.
+  if ((reference_->at(t_s).position_m - position_m).norm() > options_.rejoin_distance_m) {
+    reference_->rejoin(t_s, position_m, 120.0, 30.0);
+    ++counters_.rejoins;
+  }
+  threat_buffer_ = known_threats();
+  const DelayedPlan plan(*reference_);
+  DetourResult detour = plan_detour(plan, t_s, threat_buffer_, *terrain_, options_.detour);
+  switch (detour.status) {
+    case DetourResult::Status::kNoConflict:
+      reference_->set_detour(std::nullopt);
+      break;
+    case DetourResult::Status::kPlanned:
+      reference_->set_detour(std::move(detour.reference));
+      ++counters_.replans;
+      break;
+    case DetourResult::Status::kFailed:
+      // Keep tracking the plan: the MPC's threat rows still push the UAV away (soft).
+      reference_->set_detour(std::nullopt);
+      ++counters_.replan_failures;
+      break;
+  }
+}
+
+vehicle::Input Agent::fallback_command(double t_s, const vehicle::State& state) const {
+  const vehicle::VehicleParams& p = options_.tracker.vehicle;
+  const Vec3 to_ref = reference_->at(t_s).position_m - state.head<3>();
+  const double bearing = std::atan2(to_ref.y(), to_ref.x());
+  const double v = std::max(state[vehicle::kV], p.min_speed_m_s());
+  const double heading_error = wrap_angle(bearing - state[vehicle::kPsi]);
+  const double z = state[vehicle::kZ];
+  const double clearance = z - terrain_->height(state[vehicle::kX], state[vehicle::kY]);
+  double climb = 0.0;
+  if (clearance < 2.0 * options_.tracker.terrain_clearance_m) climb = p.max_climb_rate_m_s;
+  if (z > options_.max_altitude_m - 10.0) climb = -0.5 * p.max_climb_rate_m_s;
+  vehicle::Input u(p.min_speed_m_s(), 0.5 * heading_error, climb);
+  u[1] = std::clamp(u[1], -p.max_turn_rate_rad_s(v), p.max_turn_rate_rad_s(v));
+  // Rate limits of one control period, as the tracker obeys them.
+  const double T = options_.tracker.control_period_s;
+  const Vec3 rate(options_.tracker.max_speed_cmd_rate_m_s2, options_.tracker.max_turn_cmd_rate_rad_s2,
+                  options_.tracker.max_climb_cmd_rate_m_s2);
+  for (int k = 0; k < 3; ++k)
+    u[k] = std::clamp(u[k], last_command_[k] - rate[k] * T, last_command_[k] + rate[k] * T);
+  return vehicle::clamp_to_limits(u, state, p);
+}
+
+AgentStep Agent::control(double t_s, const vehicle::State& measured,
+                         const Vec3& measured_wind_m_s) {
+  AgentStep out;
+  if (estimate_ && t_s > estimate_time_s_) {
+    const vehicle::State predicted = vehicle::euler_step(*estimate_, last_command_, measured_wind_m_s,
+                                                         options_.tracker.vehicle,
+                                                         t_s - estimate_time_s_);
+    vehicle::State e = measured;
+    e.head<3>() = predicted.head<3>() +
+                  options_.position_filter_gain * (measured.head<3>() - predicted.head<3>());
+    estimate_ = e;
+  } else {
+    estimate_ = measured;
+  }
+  estimate_time_s_ = t_s;
+  const vehicle::State& measured_state = *estimate_;
+  const Vec3 position = measured_state.head<3>();
+  if (mode_ != AgentMode::kFinished) update_mission(t_s, position);
+  if (mode_ == AgentMode::kFinished) {
+    out.mode = mode_;
+    out.command = vehicle::Input::Zero();
+    out.reference_m = position;
+    prediction_ = PredictedTrajectory{options_.id, t_s, options_.tracker.prediction_step_s,
+                                      std::vector<Vec3>(options_.tracker.prediction_horizon, position)};
+    return out;
+  }
+  forget_old_threats(t_s);
+  if (replan_requested_ || t_s - last_replan_s_ >= options_.replan_period_s) replan(t_s, position);
+
+  threat_buffer_ = known_threats();
+  neighbour_buffer_.clear();
+  bool stale = false;
+  for (const auto& [id, n] : neighbours_) {
+    neighbour_buffer_.push_back(n.prediction);
+    stale = stale || t_s - n.stamp_s > options_.neighbour_stale_s;
+  }
+  counters_.stale_neighbour_steps += stale ? 1 : 0;
+  const mpc::TrackerEnvironment environment{threat_buffer_, neighbour_buffer_, terrain_.get()};
+
+  if (mode_ == AgentMode::kFallback) tracker_.reset(last_command_);
+  const mpc::UavTrackerResult& r =
+      tracker_.step(t_s, measured_state, measured_wind_m_s, *reference_, environment);
+  const bool solved = r.qp_status == qp::QpStatus::kSolved;
+  if (!solved) ++counters_.qp_failures;
+  consecutive_failures_ = solved ? 0 : consecutive_failures_ + 1;
+  consecutive_successes_ = solved ? consecutive_successes_ + 1 : 0;
+
+  const Vec3 reference_position = reference_->at(t_s).position_m;
+  const bool lost = (reference_position - position).norm() > options_.lost_reference_m;
+  if (mode_ == AgentMode::kTracking &&
+      (consecutive_failures_ >= options_.fallback_after_failures || lost)) {
+    mode_ = AgentMode::kFallback;
+  } else if (mode_ == AgentMode::kFallback && !lost &&
+             consecutive_successes_ >= options_.recover_after_successes) {
+    mode_ = AgentMode::kTracking;
+  }
+
+  if (mode_ == AgentMode::kFallback) {
+    out.command = fallback_command(t_s, measured_state);
+    ++counters_.fallback_steps;
+  } else {
+    out.command = r.command;
+  }
+  last_command_ = out.command;
+  out.mode = mode_;
+  out.reference_m = reference_position;
+  out.tracker = &r;
+  out.max_slack_m = r.max_slack_m();
+
+  if (r.predicted_positions_m.cols() > 0) {
+    PredictedTrajectory p;
+    p.uav = options_.id;
+    p.step_s = r.prediction_step_s;
+    p.stamp_s = r.first_prediction_time_s - r.prediction_step_s;
+    p.positions_m.reserve(static_cast<std::size_t>(r.predicted_positions_m.cols()));
+    for (Eigen::Index j = 0; j < r.predicted_positions_m.cols(); ++j)
+      p.positions_m.emplace_back(r.predicted_positions_m.col(j));
+    prediction_ = std::move(p);
+  }
+  return out;
+}
+
+PredictedTrajectory Agent::prediction_message() const {
+  if (prediction_) return *prediction_;
+  PredictedTrajectory p;
+  p.uav = options_.id;
+  p.step_s = options_.tracker.prediction_step_s;
+  return p;
+}
+
+}  // namespace ridgeline::swarm

@@ -1,0 +1,182 @@
+// One UAV's on-board agent (DESIGN §1, issue "main job", parts 3–4). It knows its own
+// measurements and what arrives as messages; never another agent's memory.
+//
+// Every control period (50 Hz) control():
+//  0. state estimate: the position fix is noisy (0.1 m), and the incremental MPC differences
+//     positions over one prediction step (0.1 s), which would turn that noise into ~1.4 m/s of
+//     velocity noise — and ~20 interior-point iterations instead of ~5. A fixed-gain observer
+//     predicts the position with the controller's model (applied command, measured wind) and
+//     corrects it by position_filter_gain·(fix − prediction); the other states are taken as
+//     measured. Gain 0.2 cuts the noise to ~⅓ with a model-error bias of (1−g)/g of one step's
+//     error (millimetres).
+//  1. mission: the next target counts as inspected when the UAV passes within its radius and
+//     altitude band; after the last one, and once the reference has ended, the agent is
+//     finished (it holds — the default team are multirotors). Targets still open
+//     `missed_after_s` after the plan's end are reported as missed, never silently skipped.
+//  2. local re-plan (at most every replan_period_s, and at once when a threat becomes known):
+//     the reference is checked against every known threat's predicted motion over the
+//     look-ahead and, on a conflict, replaced by a detour (agent_reference.hpp). When the UAV
+//     has fallen more than rejoin_distance_m behind its reference (after an avoidance), it
+//     re-joins the plan at the nearest point (a delay, same validated path).
+//  3. tracking: the MPC tracker with the known threats, the neighbours' broadcast predictions
+//     and the terrain as soft constraints.
+//  4. safe fallback: when the QP is not solved for fallback_after_failures consecutive steps,
+//     or the reference is lost (farther than lost_reference_m even after re-joining), the
+//     agent slows to the band's lower end, turns toward its reference and climbs while the
+//     terrain clearance is below 2·h_safe (never above H_max); it returns to tracking once
+//     the QP has been solved again for recover_after_successes steps.
+// Messages: every broadcast period (10 ms) the latest prediction as PredictedTrajectory; a
+// ThreatReport when a threat is first sensed and then every threat_report_period_s while it is
+// sensed. Received messages are checked (check_message) and rejected ones counted. A
+// neighbour's prediction older than neighbour_stale_s is still used — extrapolated at its last
+// velocity — and counted as stale: forgetting a neighbour is never safer than a stale guess.
+// A threat not confirmed (sensed or reported) for threat_forget_s is dropped.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mpc/uav_tracker.hpp"
+#include "swarm/agent_reference.hpp"
+#include "swarm/messages.hpp"
+#include "world/terrain.hpp"
+#include "world/threat.hpp"
+
+namespace ridgeline::swarm {
+
+struct AgentTarget {
+  std::string name;
+  Vec3 position_m = Vec3::Zero();
+  double radius_m = 30.0;            ///< 3-D distance of a pass that counts
+  double altitude_band_m = 30.0;     ///< |z − z_target| of a pass that counts
+};
+
+struct AgentOptions {
+  int id = 0;
+  int num_uavs = 1;
+  mpc::UavTrackerOptions tracker;
+  DetourOptions detour;
+  std::vector<AgentTarget> targets;  ///< this UAV's, in visiting order
+  double broadcast_period_s = 0.01;
+  double threat_report_period_s = 1.0;
+  double neighbour_stale_s = 1.0;
+  double threat_forget_s = 10.0;
+  double replan_period_s = 1.0;
+  double rejoin_distance_m = 40.0;
+  double lost_reference_m = 120.0;
+  double missed_after_s = 30.0;
+  double position_filter_gain = 0.2;  ///< in (0, 1]; 1 uses the raw fix
+  int fallback_after_failures = 5;
+  int recover_after_successes = 10;
+  double min_altitude_m = 40.0;
+  double max_altitude_m = 500.0;
+};
+
+/// What the agent's own sensor reports of a threat (centre at the time of sensing).
+struct ThreatObservation {
+  int threat_id = -1;
+  Vec3 centre_m = Vec3::Zero();
+  Vec3 velocity_m_s = Vec3::Zero();
+  double radius_m = 0.0;
+};
+
+enum class AgentMode { kTracking, kFallback, kFinished };
+const char* to_string(AgentMode mode);
+
+struct AgentCounters {
+  std::uint64_t messages_received = 0;
+  std::uint64_t messages_rejected = 0;
+  std::uint64_t stale_neighbour_steps = 0;  ///< control steps that used a stale prediction
+  std::uint64_t replans = 0;                ///< detours planned
+  std::uint64_t replan_failures = 0;
+  std::uint64_t rejoins = 0;
+  std::uint64_t fallback_steps = 0;
+  std::uint64_t qp_failures = 0;
+  std::uint64_t threat_reports_sent = 0;
+};
+
+struct AgentStep {
+  vehicle::Input command = vehicle::Input::Zero();
+  AgentMode mode = AgentMode::kTracking;
+  Vec3 reference_m = Vec3::Zero();  ///< r(t) the agent tracked at this step
+  const mpc::UavTrackerResult* tracker = nullptr;  ///< valid until the next control()
+  double max_slack_m = 0.0;
+};
+
+class Agent {
+ public:
+  /// `plan` is this UAV's reference from the global planner. Throws InputError for invalid
+  /// options (names the field).
+  Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledReference> plan,
+        std::shared_ptr<const world::Terrain> terrain);
+
+  int id() const { return options_.id; }
+
+  /// A message from the transport. Invalid ones are counted and ignored.
+  void receive(const Envelope& envelope);
+
+  /// The agent's own sensing at t; appends the ThreatReports to broadcast to `outbox`.
+  void sense(double t_s, std::span<const ThreatObservation> observations,
+             std::vector<Message>& outbox);
+
+  /// One control period at t with the measured state and wind.
+  AgentStep control(double t_s, const vehicle::State& measured_state,
+                    const Vec3& measured_wind_m_s);
+
+  /// The latest prediction as a message (empty positions before the first control()).
+  PredictedTrajectory prediction_message() const;
+
+  AgentMode mode() const { return mode_; }
+  bool finished() const { return mode_ == AgentMode::kFinished; }
+  int targets_inspected() const { return next_target_; }
+  /// Names of targets declared missed (open when the plan ended + missed_after_s).
+  const std::vector<std::string>& missed_targets() const { return missed_; }
+  const AgentCounters& counters() const { return counters_; }
+  const AgentReference& reference() const { return *reference_; }
+  /// Threats the agent knows now (own sensing and reports).
+  std::vector<world::Threat> known_threats() const;
+
+ private:
+  struct KnownThreat {
+    world::Threat threat;
+    double confirmed_s = 0.0;     ///< last time sensed or reported
+    double last_reported_s = -1e9;  ///< last time this agent broadcast it
+  };
+  struct KnownNeighbour {
+    mpc::NeighbourPrediction prediction;
+    double stamp_s = 0.0;
+  };
+
+  void update_mission(double t_s, const Vec3& position_m);
+  void replan(double t_s, const Vec3& position_m);
+  vehicle::Input fallback_command(double t_s, const vehicle::State& state) const;
+  void forget_old_threats(double t_s);
+
+  AgentOptions options_;
+  std::shared_ptr<const world::Terrain> terrain_;
+  std::shared_ptr<AgentReference> reference_;
+  mpc::UavTracker tracker_;
+  std::map<int, KnownThreat> threats_;
+  std::map<int, KnownNeighbour> neighbours_;
+  std::vector<world::Threat> threat_buffer_;
+  std::vector<mpc::NeighbourPrediction> neighbour_buffer_;
+  AgentMode mode_ = AgentMode::kTracking;
+  int next_target_ = 0;
+  std::vector<std::string> missed_;
+  int consecutive_failures_ = 0;
+  int consecutive_successes_ = 0;
+  double last_replan_s_ = -1e9;
+  bool replan_requested_ = true;
+  vehicle::Input last_command_ = vehicle::Input::Zero();
+  std::optional<PredictedTrajectory> prediction_;
+  AgentCounters counters_;
+  std::optional<vehicle::State> estimate_;
+  double estimate_time_s_ = 0.0;
+};
+
+}  // namespace ridgeline::swarm

@@ -1,0 +1,86 @@
+// The reference an agent actually tracks: the global plan's r_i(t), possibly delayed and
+// locally deformed by the agent's own re-planning (issue "main job", part 3).
+//
+// Two local changes keep the plan's validated geometry wherever they can:
+//  - a delay δ: r(t) = r_plan(t − δ). After a long avoidance manoeuvre the UAV is behind its
+//    plan; instead of racing to catch up (or cutting corners across terrain), the agent
+//    re-joins the plan at the point nearest to it. The path stays the validated one; only
+//    its timing changes, and the MPC's neighbour rows keep the separation the new timing no
+//    longer guarantees.
+//  - a detour over a window [t_a, t_b] around known moving threats (detour()). Outside the
+//    window r is the delayed plan, so the detour joins it continuously.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "mpc/reference.hpp"
+#include "world/terrain.hpp"
+#include "world/threat.hpp"
+
+namespace ridgeline::swarm {
+
+class AgentReference : public mpc::ReferenceTrajectory {
+ public:
+  explicit AgentReference(std::shared_ptr<const mpc::SampledReference> plan);
+
+  mpc::ReferencePoint at(double t_s) const override;
+
+  /// The plan's own (undeformed) reference at the agent's time t, with the current delay.
+  mpc::ReferencePoint plan_at(double t_s) const;
+  double delay_s() const { return delay_s_; }
+  double plan_end_time_s() const { return plan_->end_time_s() + delay_s_; }
+  bool has_detour() const { return detour_.has_value(); }
+
+  /// Re-joins the plan at the point nearest to `position_m` among plan times within
+  /// [t − max_back_s, t + max_ahead_s] (plan time, before delay): sets the delay so that
+  /// r(t) is that point, and drops any detour. Returns the new delay.
+  double rejoin(double t_s, const Vec3& position_m, double max_back_s, double max_ahead_s);
+
+  /// Replaces the detour (or removes it with std::nullopt). The detour must start and end on
+  /// the delayed plan (built by plan_detour below).
+  void set_detour(std::optional<mpc::SampledReference> detour);
+
+ private:
+  std::shared_ptr<const mpc::SampledReference> plan_;
+  double delay_s_ = 0.0;
+  std::optional<mpc::SampledReference> detour_;
+};
+
+struct DetourOptions {
+  double lookahead_s = 40.0;       ///< window of the check and of the detour
+  double sample_step_s = 0.5;      ///< spacing of the detour's samples
+  double clearance_m = 15.0;       ///< kept beyond R + r_safe, horizontally
+  double lateral_rate_m_s = 4.0;   ///< how fast the offset may grow or shrink (ramps)
+  double terrain_clearance_m = 20.0;
+  double min_altitude_m = 40.0;
+  double max_altitude_m = 500.0;
+  double max_climb_rate_m_s = 3.0;  ///< the detour's climbs stay below this
+  double threat_margin_m = 10.0;    ///< r_safe
+};
+
+/// Outcome of a local re-plan.
+struct DetourResult {
+  enum class Status {
+    kNoConflict,  ///< the reference already keeps R + r_safe + clearance from every threat
+    kPlanned,     ///< `reference` avoids every known threat over the window
+    kFailed,      ///< no valid detour (terrain or altitude band); `message` says why
+  };
+  Status status = Status::kNoConflict;
+  std::optional<mpc::SampledReference> reference;
+  std::string message;
+};
+
+/// Checks the reference over [t, t + lookahead] against the threats' predicted motion and, on
+/// a conflict, builds a detour: each sample is pushed horizontally away from the threat centre
+/// at its own time to R + r_safe + clearance, the push is dilated in time so it grows and
+/// shrinks at most lateral_rate_m_s (smooth turns in, smooth turns out), raised where the
+/// terrain needs it (climb-limited), and checked against the altitude band. A threat is
+/// treated as a vertical cylinder (conservative: flying over it is not attempted).
+DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
+                         std::span<const world::Threat> threats, const world::Terrain& terrain,
+                         const DetourOptions& options);
+
+}  // namespace ridgeline::swarm
