@@ -215,9 +215,12 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     const vehicle::State predicted = vehicle::euler_step(*estimate_, last_command_, measured_wind_m_s,
                                                          options_.tracker.vehicle,
                                                          t_s - estimate_time_s_);
+    const Vec3 innovation = measured.head<3>() - predicted.head<3>();
     vehicle::State e = measured;
-    e.head<3>() = predicted.head<3>() +
-                  options_.position_filter_gain * (measured.head<3>() - predicted.head<3>());
+    // A fix far from the prediction means the estimate, not the fix, is wrong (a hold, a
+    // restart): start again from the fix.
+    if (innovation.norm() <= options_.position_reset_m)
+      e.head<3>() = predicted.head<3>() + options_.position_filter_gain * innovation;
     estimate_ = e;
   } else {
     estimate_ = measured;

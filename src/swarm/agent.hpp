@@ -8,7 +8,7 @@
 //     predicts the position with the controller's model (applied command, measured wind) and
 //     corrects it by position_filter_gain·(fix − prediction); the other states are taken as
 //     measured. Gain 0.2 cuts the noise to ~⅓ with a model-error bias of (1−g)/g of one step's
-//     error (millimetres).
+//     error (millimetres). An innovation above position_reset_m restarts from the fix.
 //  1. mission: the next target counts as inspected when the UAV passes within its radius and
 //     altitude band; after the last one, and once the reference has ended, the agent is
 //     finished (it holds — the default team are multirotors). Targets still open
@@ -71,6 +71,7 @@ struct AgentOptions {
   double lost_reference_m = 120.0;
   double missed_after_s = 30.0;
   double position_filter_gain = 0.2;  ///< in (0, 1]; 1 uses the raw fix
+  double position_reset_m = 10.0;     ///< innovation beyond which the estimate restarts
   int fallback_after_failures = 5;
   int recover_after_successes = 10;
   double min_altitude_m = 40.0;

@@ -67,41 +67,45 @@ DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
   bool conflict = false;
   for (const world::Threat& threat : threats) {
     const double keep = threat.radius_m + o.threat_margin_m + o.clearance_m;
-    std::vector<double> need(n, 0.0);
-    std::vector<Vec2> away(n, Vec2::Zero());
-    bool any = false;
+    std::vector<Vec2> d(n);
+    std::vector<bool> inside(n, false);
+    int deepest = -1;
+    double deepest_distance = keep;
     for (int j = 0; j < n; ++j) {
       if (!threat.active(times[j])) continue;
-      const Vec2 d = horizontal(base[j].position_m - threat.centre_at(times[j]));
-      const double dist = d.norm();
+      d[j] = horizontal(base[j].position_m - threat.centre_at(times[j]));
+      const double dist = d[j].norm();
       if (dist >= keep) continue;
-      any = true;
-      need[j] = keep - dist;
-      // On the centre line the side is arbitrary; take the reference's left.
-      away[j] = dist > 1e-6 ? Vec2(d / dist)
-                            : Vec2(-std::sin(base[j].heading_rad), std::cos(base[j].heading_rad));
-    }
-    if (!any) continue;
-    conflict = true;
-    // One side for the whole encounter: the side of the deepest sample. Flipping sides in the
-    // middle would cut through the threat.
-    const int deepest = static_cast<int>(std::max_element(need.begin(), need.end()) - need.begin());
-    const Vec2 side = away[deepest];
-    // Dilate in time: the offset may change by at most lateral_rate·|Δt|.
-    std::vector<double> offset(n, 0.0);
-    for (int j = 0; j < n; ++j) {
-      for (int k = 0; k < n; ++k) {
-        if (need[k] <= 0.0) continue;
-        offset[j] = std::max(offset[j], need[k] - o.lateral_rate_m_s * std::abs(times[j] - times[k]));
+      inside[j] = true;
+      if (dist < deepest_distance) {
+        deepest_distance = dist;
+        deepest = j;
       }
     }
+    if (deepest < 0) continue;
+    conflict = true;
+    // One side for the whole encounter, perpendicular to the reference where it comes closest
+    // and away from the centre there: pushing along a fixed direction keeps the offsets smooth,
+    // and flipping sides mid-encounter would cut through the threat.
+    const double h = base[deepest].heading_rad;
+    Vec2 side(-std::sin(h), std::cos(h));
+    if (side.dot(d[deepest]) < 0.0) side = -side;
+    // The push a ≥ 0 along `side` that puts the sample at `keep`: |d + a·side| = keep. Any larger
+    // push keeps more distance (|d + a·side| grows for a ≥ −d·side), so dilating is safe.
+    std::vector<double> need(n, 0.0);
     for (int j = 0; j < n; ++j) {
-      if (offset[j] <= 0.0) continue;
-      // Where the sample is beside the threat, push away from its centre; elsewhere along the
-      // encounter's side, so the ramps in and out do not swing around the centre.
-      Vec2 dir = need[j] > 0.0 ? away[j] : side;
-      if (dir.dot(side) < 0.0) dir = side;
-      push[j] += offset[j] * dir;
+      if (!inside[j]) continue;
+      const double along = d[j].dot(side);
+      need[j] = -along + std::sqrt(std::max(0.0, along * along - d[j].squaredNorm() + keep * keep));
+    }
+    // Dilate in time: the offset may change by at most lateral_rate·|Δt|.
+    for (int j = 0; j < n; ++j) {
+      double offset = 0.0;
+      for (int k = 0; k < n; ++k) {
+        if (need[k] > 0.0)
+          offset = std::max(offset, need[k] - o.lateral_rate_m_s * std::abs(times[j] - times[k]));
+      }
+      push[j] += offset * side;
     }
   }
   if (!conflict) return result;

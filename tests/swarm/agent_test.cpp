@@ -1,0 +1,144 @@
+#include "swarm/agent.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <vector>
+
+#include "core/error.hpp"
+#include "world/terrain.hpp"
+
+namespace ridgeline::swarm {
+namespace {
+
+std::shared_ptr<const mpc::SampledReference> line_east(double y, double z = 100.0) {
+  std::vector<double> t;
+  std::vector<Vec3> p;
+  for (int k = 0; k <= 100; ++k) {
+    t.push_back(k);
+    p.emplace_back(10.0 * k, y, z);
+  }
+  return std::make_shared<const mpc::SampledReference>(mpc::SampledReference::from_positions(t, p));
+}
+
+std::shared_ptr<const world::Terrain> flat() {
+  return std::make_shared<world::PeakTerrain>(world::PeakTerrainConfig{});
+}
+
+AgentOptions options(int id, int n) {
+  AgentOptions o;
+  o.id = id;
+  o.num_uavs = n;
+  o.targets = {{"end", Vec3(1000.0, 0.0, 100.0), 30.0, 30.0}};
+  return o;
+}
+
+vehicle::State state_at(const Vec3& p) {
+  vehicle::State s = vehicle::State::Zero();
+  s.head<3>() = p;
+  s[vehicle::kV] = 10.0;
+  return s;
+}
+
+TEST(Agent, InvalidOptionsNameTheField) {
+  AgentOptions o = options(3, 2);
+  try {
+    Agent a(o, line_east(0.0), flat());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "id");
+  }
+}
+
+TEST(Agent, MalformedAndForeignMessagesAreRejectedAndCounted) {
+  Agent a(options(0, 3), line_east(0.0), flat());
+  PredictedTrajectory bad;
+  bad.uav = 1;
+  bad.stamp_s = 1.0;
+  bad.positions_m = {Vec3(std::nan(""), 0, 0)};
+  a.receive(Envelope{1, 1.0, 1.0, bad});
+  PredictedTrajectory impostor;  // says it is UAV 2 but comes from 1
+  impostor.uav = 2;
+  impostor.positions_m = {Vec3(0, 0, 100)};
+  a.receive(Envelope{1, 1.0, 1.0, impostor});
+  ThreatReport negative{1, 0, 1.0, Vec3(0, 0, 0), Vec3::Zero(), -5.0};
+  a.receive(Envelope{1, 1.0, 1.0, negative});
+  a.receive(Envelope{7, 1.0, 1.0, StateReport{}});  // sender out of range
+  EXPECT_EQ(a.counters().messages_received, 4u);
+  EXPECT_EQ(a.counters().messages_rejected, 4u);
+  EXPECT_TRUE(a.known_threats().empty());
+}
+
+TEST(Agent, ThreatReportsAreLearnedAndOlderOnesIgnored) {
+  Agent a(options(0, 2), line_east(0.0), flat());
+  a.receive(Envelope{1, 5.0, 5.01, ThreatReport{1, 4, 5.0, Vec3(500, 0, 100), Vec3(1, 0, 0), 30.0}});
+  a.receive(Envelope{1, 4.0, 5.02, ThreatReport{1, 4, 4.0, Vec3(0, 0, 0), Vec3::Zero(), 30.0}});
+  const std::vector<world::Threat> known = a.known_threats();
+  ASSERT_EQ(known.size(), 1u);
+  EXPECT_DOUBLE_EQ(known[0].centre_m.x(), 500.0);  // the late, older report did not win
+  EXPECT_DOUBLE_EQ(known[0].appear_s, 5.0);
+  // Forgotten when nobody confirms it for threat_forget_s.
+  a.control(5.0 + a.counters().messages_received * 0.0 + 11.0, state_at(Vec3(160, 0, 100)),
+            Vec3::Zero());
+  EXPECT_TRUE(a.known_threats().empty());
+}
+
+TEST(Agent, OwnSensingIsReportedOncePerPeriod) {
+  AgentOptions o = options(0, 2);
+  o.threat_report_period_s = 1.0;
+  Agent a(o, line_east(0.0), flat());
+  std::vector<Message> outbox;
+  const std::vector<ThreatObservation> seen{{2, Vec3(400, 50, 100), Vec3(0, -2, 0), 40.0}};
+  for (int k = 0; k < 100; ++k) a.sense(k * 0.02, seen, outbox);  // 2 s at 50 Hz
+  ASSERT_EQ(outbox.size(), 2u);
+  const auto& first = std::get<ThreatReport>(outbox[0]);
+  EXPECT_EQ(first.reporter, 0);
+  EXPECT_EQ(first.threat_id, 2);
+  EXPECT_FALSE(check_message(outbox[0], 2).has_value());
+  EXPECT_EQ(a.counters().threat_reports_sent, 2u);
+}
+
+// A threat sits on the line ahead: the agent's next control step re-plans a detour, and the
+// reference it tracks keeps away from the threat.
+TEST(Agent, KnownThreatOnTheReferenceTriggersADetour) {
+  Agent a(options(0, 1), line_east(0.0), flat());
+  std::vector<Message> outbox;
+  const std::vector<ThreatObservation> seen{{0, Vec3(300, 0, 100), Vec3::Zero(), 40.0}};
+  a.sense(0.0, seen, outbox);
+  const AgentStep step = a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(step.mode, AgentMode::kTracking);
+  EXPECT_EQ(a.counters().replans, 1u);
+  EXPECT_TRUE(a.reference().has_detour());
+  const Vec3 beside = a.reference().at(30.0).position_m;
+  EXPECT_GE(std::hypot(beside.x() - 300.0, beside.y()), 40.0 + 10.0 + 15.0 - 1.0);
+  EXPECT_EQ(a.prediction_message().uav, 0);
+  EXPECT_EQ(a.prediction_message().positions_m.size(), 40u);
+}
+
+TEST(Agent, PassingTheLastTargetFinishesAndHolds) {
+  Agent a(options(0, 1), line_east(0.0), flat());
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_FALSE(a.finished());
+  const AgentStep step = a.control(0.02, state_at(Vec3(990, 5, 100)), Vec3::Zero());
+  EXPECT_EQ(step.mode, AgentMode::kFinished);
+  EXPECT_EQ(a.targets_inspected(), 1);
+  EXPECT_TRUE(a.missed_targets().empty());
+  // A finished agent broadcasts that it holds where it is.
+  const PredictedTrajectory p = a.prediction_message();
+  ASSERT_FALSE(p.positions_m.empty());
+  EXPECT_NEAR(p.positions_m.back().x(), 990.0, 1.0);
+}
+
+TEST(Agent, TargetsStillOpenLongAfterThePlanEndAreReportedMissed) {
+  AgentOptions o = options(0, 1);
+  o.targets = {{"far", Vec3(0.0, 900.0, 100.0), 30.0, 30.0}};
+  o.missed_after_s = 5.0;
+  Agent a(o, line_east(0.0), flat());
+  a.control(106.0, state_at(Vec3(1000, 0, 100)), Vec3::Zero());
+  EXPECT_TRUE(a.finished());
+  ASSERT_EQ(a.missed_targets().size(), 1u);
+  EXPECT_EQ(a.missed_targets()[0], "far");
+}
+
+}  // namespace
+}  // namespace ridgeline::swarm
