@@ -4,7 +4,8 @@
 // only through the transport, sudden threats, wind) and writes DIR/summary.json,
 // DIR/plan.json, DIR/metrics.json and DIR/trajectories.csv. Progress goes to stderr, a short
 // table to stdout. Exit 0 when the flight was safe, 4 when a safety metric failed (the outputs
-// are still written: they are the evidence).
+// are still written: they are the evidence). --variation SEED flies a Monte Carlo variation
+// (the same plan; threats, wind, noise and starts varied) to replay a failed run.
 #include <iostream>
 
 #include <fmt/format.h>
@@ -15,6 +16,7 @@
 #include "io/plan_file.hpp"
 #include "io/scenario_summary.hpp"
 #include "sim/mission.hpp"
+#include "sim/variation.hpp"
 
 namespace ridgeline::apps {
 namespace {
@@ -48,12 +50,15 @@ void register_run_command(CLI::App& app) {
     std::string scenario;
     std::string out = "out";
     bool quiet = false;
+    std::optional<std::uint64_t> variation;
   };
   auto args = std::make_shared<Args>();
   CLI::App* run = app.add_subcommand("run", "Plan and fly the mission (default: embedded scenario)");
   run->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   run->add_option("--out", args->out, "Output folder")->capture_default_str();
   run->add_flag("--quiet", args->quiet, "No progress on stderr");
+  run->add_option("--variation", args->variation,
+                  "Fly the Monte Carlo variation with this seed (as listed by montecarlo)");
   run->callback([args] {
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     nlohmann::json summary = io::summarize(loaded);
@@ -70,7 +75,10 @@ void register_run_command(CLI::App& app) {
                     << std::flush;
       };
     }
-    const sim::MissionResult flown = sim::fly_mission(loaded.scenario, loaded.terrain, *plan, options);
+    const sim::Scenario flown_scenario =
+        args->variation ? sim::vary_scenario(loaded.scenario, *loaded.terrain, *args->variation)
+                        : loaded.scenario;
+    const sim::MissionResult flown = sim::fly_mission(flown_scenario, loaded.terrain, *plan, options);
     if (!args->quiet) std::cerr << '\n';
     const sim::MissionMetrics& m = flown.metrics;
     std::cout << metrics_table(m);

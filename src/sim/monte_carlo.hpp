@@ -1,0 +1,52 @@
+// Monte Carlo batches of the closed-loop mission (issue "main job", part 7): one plan, many
+// flights, each a variation (variation.hpp) with its own seed, run on a pool of threads. Each
+// flight is deterministic for its seed, so the batch's results do not depend on the number of
+// threads, and a failed run is replayed with `ridgeline run --variation SEED`.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "planning/global_planner.hpp"
+#include "sim/mission_metrics.hpp"
+#include "sim/scenario.hpp"
+#include "sim/variation.hpp"
+
+namespace ridgeline::sim {
+
+struct MonteCarloOptions {
+  int runs = 100;
+  int threads = 1;
+  VariationOptions variation;
+  /// Called from the worker threads (serialized) after each run: (done, total, failed so far).
+  std::function<void(int, int, int)> progress;
+};
+
+struct MonteCarloRun {
+  int index = 0;
+  std::uint64_t seed = 0;
+  MissionMetrics metrics;
+  /// Why the run failed: "terrain collision", "threat intrusion", ...; empty when it passed.
+  std::vector<std::string> failures;
+};
+
+struct MonteCarloReport {
+  std::vector<MonteCarloRun> runs;  ///< in index order
+  int threads = 1;
+  double wall_time_s = 0.0;
+
+  /// Counts, rates with Wilson 95 % intervals, each metric's distribution, failed runs.
+  nlohmann::json summary() const;
+};
+
+/// Throws InputError for runs < 1 or threads < 1, or a plan that is not planned.
+MonteCarloReport run_monte_carlo(const Scenario& scenario,
+                                 std::shared_ptr<const world::Terrain> terrain,
+                                 const planning::GlobalPlan& plan, const MonteCarloOptions& options);
+
+}  // namespace ridgeline::sim
