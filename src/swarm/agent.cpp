@@ -53,6 +53,7 @@ Agent::Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledRefe
           "lost_reference_m", "must exceed rejoin_distance_m > 0");
   require(options.position_filter_gain > 0.0 && options.position_filter_gain <= 1.0,
           "position_filter_gain", "must be in (0, 1]");
+  require(options.wind_filter_time_s >= 0.0, "wind_filter_time_s", "must not be negative");
   require(options.fallback_after_failures >= 1, "fallback_after_failures", "must be at least 1");
   require(options.recover_after_successes >= 1, "recover_after_successes", "must be at least 1");
   require(terrain_ != nullptr, "terrain", "is required");
@@ -212,7 +213,9 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
                          const Vec3& measured_wind_m_s) {
   AgentStep out;
   if (estimate_ && t_s > estimate_time_s_) {
-    const vehicle::State predicted = vehicle::euler_step(*estimate_, last_command_, measured_wind_m_s,
+    const double dt = t_s - estimate_time_s_;
+    wind_estimate_ += dt / (options_.wind_filter_time_s + dt) * (measured_wind_m_s - wind_estimate_);
+    const vehicle::State predicted = vehicle::euler_step(*estimate_, last_command_, wind_estimate_,
                                                          options_.tracker.vehicle,
                                                          t_s - estimate_time_s_);
     const Vec3 innovation = measured.head<3>() - predicted.head<3>();
@@ -224,6 +227,7 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     estimate_ = e;
   } else {
     estimate_ = measured;
+    wind_estimate_ = measured_wind_m_s;
   }
   estimate_time_s_ = t_s;
   const vehicle::State& measured_state = *estimate_;
@@ -252,7 +256,7 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
 
   if (mode_ == AgentMode::kFallback) tracker_.reset(last_command_);
   const mpc::UavTrackerResult& r =
-      tracker_.step(t_s, measured_state, measured_wind_m_s, *reference_, environment);
+      tracker_.step(t_s, measured_state, wind_estimate_, *reference_, environment);
   const bool solved = r.qp_status == qp::QpStatus::kSolved;
   if (!solved) ++counters_.qp_failures;
   consecutive_failures_ = solved ? 0 : consecutive_failures_ + 1;

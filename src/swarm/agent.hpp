@@ -7,8 +7,16 @@
 //     velocity noise — and ~20 interior-point iterations instead of ~5. A fixed-gain observer
 //     predicts the position with the controller's model (applied command, measured wind) and
 //     corrects it by position_filter_gain·(fix − prediction); the other states are taken as
-//     measured. Gain 0.2 cuts the noise to ~⅓ with a model-error bias of (1−g)/g of one step's
-//     error (millimetres). An innovation above position_reset_m restarts from the fix.
+//     measured. Gain g leaves sqrt(g/(2−g)) of the noise (0.02: a tenth, 1 cm) with a bias of
+//     (1−g)/g times one step's model error (~0.6 mm, so ~3 cm). Measured on the default
+//     terrain with one UAV: interior-point iterations median 10 → 3 (gain 0.2: 8; 0.05: 4),
+//     MPC step 740 → 280 µs; tracking RMSE 0.17 → 0.21 m.
+//     An innovation above position_reset_m restarts from the fix.
+//     The anemometer is low-passed with time constant wind_filter_time_s: the tracker feeds
+//     the wind's change over a prediction step forward, and differencing raw readings (0.2 m/s
+//     noise) made that term noise — measured: median 10 interior-point iterations against 8
+//     with a noiseless anemometer. Gusts are correlated over seconds, so a 0.5 s lag costs
+//     little, and the tracker's robust margin covers the wind error.
 //  1. mission: the next target counts as inspected when the UAV passes within its radius and
 //     altitude band; after the last one, and once the reference has ended, the agent is
 //     finished (it holds — the default team are multirotors). Targets still open
@@ -70,8 +78,9 @@ struct AgentOptions {
   double rejoin_distance_m = 40.0;
   double lost_reference_m = 120.0;
   double missed_after_s = 30.0;
-  double position_filter_gain = 0.2;  ///< in (0, 1]; 1 uses the raw fix
+  double position_filter_gain = 0.02;  ///< in (0, 1]; 1 uses the raw fix
   double position_reset_m = 10.0;     ///< innovation beyond which the estimate restarts
+  double wind_filter_time_s = 0.5;    ///< ≥ 0; 0 uses the raw anemometer
   int fallback_after_failures = 5;
   int recover_after_successes = 10;
   double min_altitude_m = 40.0;
@@ -177,6 +186,7 @@ class Agent {
   std::optional<PredictedTrajectory> prediction_;
   AgentCounters counters_;
   std::optional<vehicle::State> estimate_;
+  Vec3 wind_estimate_ = Vec3::Zero();
   double estimate_time_s_ = 0.0;
 };
 
