@@ -1,0 +1,141 @@
+// The closed-loop mission on small scenarios built in code: it completes, is safe, is
+// deterministic for a seed, and its metrics measure what they say.
+#include "sim/mission.hpp"
+
+#include <gtest/gtest.h>
+
+#include "sim/mission_problem.hpp"
+#include "sim/monte_carlo.hpp"
+#include "sim/statistics.hpp"
+#include "world/terrain.hpp"
+
+namespace ridgeline::sim {
+namespace {
+
+struct Fixture {
+  Scenario scenario;
+  std::shared_ptr<const world::Terrain> terrain;
+  planning::GlobalPlan plan;
+};
+
+// Two UAVs cross a hill to two targets 600 m away; a threat crosses their routes.
+Fixture small_mission(bool with_threat) {
+  Fixture f;
+  world::PeakTerrainConfig peaks;
+  peaks.peaks = {{350, 300, 60, 120, 120}};
+  f.terrain = std::make_shared<world::PeakTerrain>(peaks);
+  Scenario& s = f.scenario;
+  s.name = "small";
+  s.seed = 7;
+  s.area = {0, 800, 0, 800};
+  const Vec3 starts[] = {{100, 100, 60}, {100, 150, 60}};
+  for (int i = 0; i < 2; ++i) {
+    UavSpec u;
+    u.name = "u" + std::to_string(i);
+    u.start_position_m = starts[i];
+    u.start_heading_rad = kPi / 4;
+    s.uavs.push_back(u);
+  }
+  s.targets = {{"a", Vec3(650, 550, 80), 1, 30}, {"b", Vec3(600, 650, 80), 1, 30}};
+  if (with_threat)
+    s.threats = {{"t", Vec3(300, 500, 90), Vec3(2.0, -2.0, 0.0), 30.0, 5.0, 300.0}};
+  s.wind.mean_m_s = Vec3(1.0, 0.5, 0.0);
+  s.wind.gust_std_m_s = 0.5;
+  s.simulation.duration_s = 200.0;
+  s.simulation.link_drop_rate = 0.05;
+  EXPECT_TRUE(validate(s, *f.terrain).empty());
+  f.plan = planning::plan_mission(make_planning_problem(s, f.terrain), make_planner_options(s));
+  EXPECT_EQ(f.plan.status, planning::GlobalPlanStatus::kPlanned) << f.plan.message;
+  return f;
+}
+
+TEST(Mission, SmallMissionCompletesSafelyWithAThreatAndLossyLinks) {
+  const Fixture f = small_mission(true);
+  const MissionResult r = fly_mission(f.scenario, f.terrain, f.plan);
+  const MissionMetrics& m = r.metrics;
+  EXPECT_TRUE(m.mission_complete);
+  EXPECT_TRUE(m.safe()) << to_json(m).dump(2);
+  EXPECT_GE(m.min_separation_m, f.scenario.safety.separation_m);
+  EXPECT_GT(m.threat_encounters, 0);
+  EXPECT_EQ(m.threat_intrusions, 0);
+  EXPECT_GT(m.messages_dropped, 0);  // 5 % of the copies are lost
+  ASSERT_EQ(m.uavs.size(), 2u);
+  for (const UavMetrics& u : m.uavs) {
+    EXPECT_EQ(u.targets_inspected, 1);
+    EXPECT_GE(u.min_terrain_clearance_m, f.scenario.safety.terrain_clearance_m);
+    EXPECT_LT(u.tracking_rmse_m, 5.0);
+    EXPECT_GT(u.tracking_samples, 40);  // every 10 m of ≥ 600 m
+  }
+  // One row per UAV per control step until the last UAV finished.
+  const int steps = static_cast<int>(std::round(m.sim_time_s / f.scenario.mpc.control_period_s));
+  EXPECT_NEAR(static_cast<double>(r.trajectories.size()), 2.0 * steps, 4.0);
+}
+
+TEST(Mission, SameSeedGivesTheSameFlightAndAnotherSeedAnother) {
+  Fixture f = small_mission(false);
+  f.scenario.simulation.duration_s = 40.0;
+  const MissionResult a = fly_mission(f.scenario, f.terrain, f.plan);
+  const MissionResult b = fly_mission(f.scenario, f.terrain, f.plan);
+  ASSERT_EQ(a.trajectories.size(), b.trajectories.size());
+  for (std::size_t k = 0; k < a.trajectories.size(); k += 97)
+    EXPECT_EQ(a.trajectories[k].position_m, b.trajectories[k].position_m) << k;
+  Scenario other = f.scenario;
+  other.seed = 8;
+  const MissionResult c = fly_mission(other, f.terrain, f.plan);
+  EXPECT_NE(a.trajectories[500].position_m, c.trajectories[500].position_m);
+}
+
+TEST(Mission, UnplannedPlanIsRejectedWithTheField) {
+  const Fixture f = small_mission(false);
+  planning::GlobalPlan bad = f.plan;
+  bad.status = planning::GlobalPlanStatus::kValidationFailed;
+  try {
+    fly_mission(f.scenario, f.terrain, bad);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "plan");
+  }
+}
+
+TEST(MonteCarlo, ResultsDoNotDependOnTheNumberOfThreads) {
+  Fixture f = small_mission(true);
+  f.scenario.simulation.duration_s = 30.0;  // a partial flight is enough to compare
+  MonteCarloOptions one;
+  one.runs = 3;
+  one.threads = 1;
+  MonteCarloOptions two = one;
+  two.threads = 2;
+  const MonteCarloReport a = run_monte_carlo(f.scenario, f.terrain, f.plan, one);
+  const MonteCarloReport b = run_monte_carlo(f.scenario, f.terrain, f.plan, two);
+  ASSERT_EQ(a.runs.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(a.runs[k].seed, b.runs[k].seed);
+    EXPECT_DOUBLE_EQ(a.runs[k].metrics.min_separation_m, b.runs[k].metrics.min_separation_m);
+    EXPECT_DOUBLE_EQ(a.runs[k].metrics.uavs[0].path_length_m, b.runs[k].metrics.uavs[0].path_length_m);
+  }
+  EXPECT_NE(a.runs[0].metrics.uavs[0].path_length_m, a.runs[1].metrics.uavs[0].path_length_m);
+  // 30 s is too short to finish: every run is listed as failed, with its seed.
+  const nlohmann::json s = a.summary();
+  EXPECT_EQ(s["runs"].get<int>(), 3);
+  EXPECT_EQ(s["failed_runs"].size(), 3u);
+  EXPECT_EQ(s["failed_runs"][0]["seed"].get<std::uint64_t>(), a.runs[0].seed);
+  EXPECT_EQ(s["counts"]["complete_missions"].get<int>(), 0);
+}
+
+TEST(Statistics, WilsonIntervalsMatchTheFormula) {
+  const Interval none = wilson_interval(0, 10);
+  EXPECT_NEAR(none.low, 0.0, 1e-12);
+  EXPECT_NEAR(none.high, 0.2775, 1e-4);
+  const Interval half = wilson_interval(5, 10);
+  EXPECT_NEAR(half.low, 0.2366, 1e-4);
+  EXPECT_NEAR(half.high, 0.7634, 1e-4);
+  const Interval all = wilson_interval(200, 200);
+  EXPECT_NEAR(all.low, 0.9812, 1e-4);
+  EXPECT_NEAR(all.high, 1.0, 1e-12);
+  const Percentiles p = percentiles({5, 1, 4, 2, 3});
+  EXPECT_DOUBLE_EQ(p.median, 3.0);
+  EXPECT_DOUBLE_EQ(p.max, 5.0);
+}
+
+}  // namespace
+}  // namespace ridgeline::sim
