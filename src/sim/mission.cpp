@@ -88,8 +88,6 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
                           const planning::GlobalPlan& plan, const MissionOptions& options) {
   if (plan.status != planning::GlobalPlanStatus::kPlanned)
     throw InputError("plan", "is not planned: " + plan.message);
-  if (plan.uavs.size() != scenario.uavs.size())
-    throw InputError("plan.uavs", "the plan has a different number of UAVs than the scenario");
   const auto wall_start = std::chrono::steady_clock::now();
   const int n = static_cast<int>(scenario.uavs.size());
 
@@ -99,14 +97,35 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
       swarm::LinkModel{scenario.simulation.link_latency_s, scenario.simulation.link_jitter_s,
                        scenario.simulation.link_drop_rate},
       derive_seed(scenario.seed, kTransportStream));
+  // The plan names its UAVs; a UAV the allocation left without targets has no plan entry and
+  // stays idle: its agent finishes at once and the UAV holds at its start (still broadcasting,
+  // so the others keep their distance).
+  std::vector<planning::UavPlan> plans(static_cast<std::size_t>(n));
+  for (const planning::UavPlan& up : plan.uavs) {
+    const auto it = std::find_if(scenario.uavs.begin(), scenario.uavs.end(),
+                                 [&](const UavSpec& u) { return u.name == up.name; });
+    if (it == scenario.uavs.end())
+      throw InputError("plan.uavs", fmt::format("'{}' is not a UAV of the scenario", up.name));
+    if (!up.timing.reference)
+      throw InputError(fmt::format("plan.uavs.{}.reference", up.name), "is missing");
+    plans[static_cast<std::size_t>(it - scenario.uavs.begin())] = up;
+  }
   std::vector<std::unique_ptr<swarm::Agent>> agents;
   for (int i = 0; i < n; ++i) {
-    const planning::UavPlan& up = plan.uavs[static_cast<std::size_t>(i)];
-    if (!up.timing.reference)
-      throw InputError(fmt::format("plan.uavs[{}].reference", i), "is missing");
-    agents.push_back(std::make_unique<swarm::Agent>(
-        make_agent_options(scenario, i, up),
-        std::make_shared<const mpc::SampledReference>(*up.timing.reference), terrain));
+    const planning::UavPlan& up = plans[static_cast<std::size_t>(i)];
+    std::shared_ptr<const mpc::SampledReference> reference;
+    if (up.timing.reference) {
+      reference = std::make_shared<const mpc::SampledReference>(*up.timing.reference);
+    } else {
+      const UavSpec& u = scenario.uavs[static_cast<std::size_t>(i)];
+      mpc::ReferencePoint hold;
+      hold.position_m = u.start_position_m;
+      hold.heading_rad = u.start_heading_rad;
+      reference = std::make_shared<const mpc::SampledReference>(
+          std::vector<double>{-1.0, 0.0}, std::vector<mpc::ReferencePoint>{hold, hold});
+    }
+    agents.push_back(std::make_unique<swarm::Agent>(make_agent_options(scenario, i, up),
+                                                    std::move(reference), terrain));
   }
 
   MissionResult result;
@@ -268,7 +287,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     um.tracking_mse_m2 = u.samples > 0 ? u.squared_error_sum / u.samples : 0.0;
     um.tracking_rmse_m = std::sqrt(um.tracking_mse_m2);
     um.min_terrain_clearance_m = u.min_clearance_m;
-    um.targets_assigned = static_cast<int>(plan.uavs[static_cast<std::size_t>(i)].targets.size());
+    um.targets_assigned = static_cast<int>(plans[static_cast<std::size_t>(i)].targets.size());
     um.targets_inspected = a.targets_inspected();
     um.missed_targets = a.missed_targets();
     um.finished = a.finished();

@@ -54,7 +54,8 @@ mpc::UavTrackerOptions make_tracker_options(const Scenario& scenario, const UavS
 swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
                                        const planning::UavPlan& plan);
 
-/// Flies the planned mission. `plan` must be planned (status kPlanned) for this scenario;
+/// Flies the planned mission. `plan` must be planned (status kPlanned) for this scenario (a
+/// UAV without a plan entry holds at its start);
 /// throws InputError otherwise.
 MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world::Terrain> terrain,
                           const planning::GlobalPlan& plan, const MissionOptions& options = {});
