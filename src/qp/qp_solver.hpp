@@ -57,10 +57,13 @@ struct QpSettings {
   /// (a far-off previous solution can cost more than a cold start).
   int warm_start_max_iterations = 25;
   /// After kSolved, solve the equality-constrained QP on the active set guessed from the
-  /// interior point (a side is active when its multiplier exceeds its slack) and keep that
-  /// point when it is feasible, its multipliers have the right signs and its objective is no
-  /// worse, all within `tolerance` (relative): z then is exact up to round-off instead of
-  /// ~√μ-accurate on degenerate problems (as OSQP's polishing).
+  /// interior point (a side is active when its multiplier exceeds its slack; the solve is
+  /// refined from the interior point's z and multipliers, which keeps the multipliers
+  /// sign-correct when the active rows are dependent) and keep that point when it is
+  /// feasible, its multipliers have the right signs and its objective is no worse, all within
+  /// `tolerance` (relative). A wrong guess is corrected (sides with wrong-signed multipliers
+  /// released, violated sides forced) and solved again, a few times at most. z then is exact
+  /// up to round-off instead of ~√μ-accurate on degenerate problems (as OSQP's polishing).
   bool polish = true;
 };
 
