@@ -1,12 +1,12 @@
 // Joint trajectory optimization (src/planning/trajectory_optimizer.hpp) on the default-like
 // terrain: 3 UAVs × 100 waypoints (the paper's case: CasADi SQP 4–6 s), and 10 and 30 UAVs at
 // 100 and 200 waypoints. Initial guesses are straight lines lifted above the terrain
-// (tests/planning/trajectory_scenarios.hpp). Run with --benchmark_repetitions=5
+// (planning/team_scenarios.hpp). Run with --benchmark_repetitions=5
 // --benchmark_report_aggregates_only=true for medians. Counters: Ipopt iterations, solves,
 // NLP size, and whether the result passed the dense validation (1) or not (0).
 #include <benchmark/benchmark.h>
 
-#include "../tests/planning/trajectory_scenarios.hpp"
+#include "planning/team_scenarios.hpp"
 #include "planning/trajectory_optimizer.hpp"
 
 namespace {
@@ -14,8 +14,8 @@ namespace {
 using namespace ridgeline::planning;
 
 void BM_OptimizeTeam(benchmark::State& state) {
-  const auto terrain = testing::default_like_terrain();
-  const TrajectoryProblem problem = testing::team_problem(terrain, static_cast<int>(state.range(0)));
+  const auto terrain = default_like_terrain();
+  const TrajectoryProblem problem = straight_line_team(terrain, static_cast<int>(state.range(0)));
   TrajectoryOptimizerOptions options;
   options.waypoints_per_uav = static_cast<int>(state.range(1));
   options.time_budget_s = 120.0;

@@ -13,8 +13,11 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
   j["solve_time_s"] = plan.total_time_s;
   j["stage_times_s"] = {{"allocation", plan.allocation_time_s},
                         {"initial_paths", plan.search_time_s},
+                        {"optimization", plan.optimization_time_s},
                         {"time_parametrization", plan.timing_time_s},
                         {"validation", plan.validation_time_s}};
+  j["path_source"] = std::string(planning::to_string(plan.path_source));
+  if (!plan.optimizer_message.empty()) j["optimizer_message"] = plan.optimizer_message;
   double total_length = 0.0, makespan = 0.0;
   for (const planning::UavPlan& u : plan.uavs) {
     total_length += u.timing.path_length_m;
@@ -23,6 +26,52 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
   j["cost"] = {{"total_length_m", total_length},
                {"makespan_s", makespan},
                {"allocation_objective", plan.allocation.objective}};
+  if (plan.optimization) {
+    // Eq. 15–24 terms of the flown waypoints: the optimum, or the initial paths on the grid
+    // when those are flown.
+    const planning::TrajectoryResult& r = *plan.optimization;
+    const bool optimized = plan.path_source == planning::PathSource::kOptimized;
+    const std::vector<planning::UavCost>& costs = optimized ? r.costs : r.initial_costs;
+    if (!costs.empty()) {
+      auto terms = [](const planning::UavCost& c) {
+        return nlohmann::json{{"range", c.range},           {"pitch", c.pitch},
+                              {"pitch_penalty", c.pitch_penalty}, {"turn", c.turn},
+                              {"turn_penalty", c.turn_penalty},   {"altitude", c.altitude},
+                              {"total", c.total}};
+      };
+      planning::UavCost sum;
+      nlohmann::json per_uav = nlohmann::json::array();
+      for (std::size_t i = 0; i < costs.size(); ++i) {
+        const planning::UavCost& c = costs[i];
+        sum.range += c.range;
+        sum.pitch += c.pitch;
+        sum.pitch_penalty += c.pitch_penalty;
+        sum.turn += c.turn;
+        sum.turn_penalty += c.turn_penalty;
+        sum.altitude += c.altitude;
+        sum.total += c.total;
+        nlohmann::json cj = terms(c);
+        cj["id"] = i < plan.uavs.size() ? plan.uavs[i].name : std::string();
+        per_uav.push_back(std::move(cj));
+      }
+      j["cost"]["evaluated_on"] = optimized ? "optimized waypoints" : "initial paths";
+      j["cost"]["objective"] = optimized ? r.objective : r.initial_objective;       // J, eq. 24
+      j["cost"]["collision"] = optimized ? r.collision_cost : r.initial_collision_cost;  // J_col
+      j["cost"]["initial_objective"] = r.initial_objective;
+      j["cost"]["terms"] = terms(sum);  // Σ_i of each J_i term, eq. 23
+      j["cost"]["uavs"] = std::move(per_uav);
+    }
+    j["optimizer"] = {{"status", std::string(planning::to_string(r.status))},
+                      {"message", r.message},
+                      {"iterations", r.ipopt_iterations},
+                      {"solves", r.solves},
+                      {"variables", r.variables},
+                      {"constraints", r.constraints},
+                      {"separation_rows", r.separation_rows},
+                      {"time_step_s", r.time_step_s},
+                      {"solve_time_s", r.solve_time_s},
+                      {"total_time_s", r.total_time_s}};
+  }
   j["validation"] = {{"min_terrain_clearance_m", plan.validation.min_terrain_clearance_m},
                      {"min_separation_m", plan.validation.min_separation_m},
                      {"min_altitude_m", plan.validation.min_altitude_m},
@@ -65,10 +114,13 @@ std::string plan_summary_text(const planning::GlobalPlan& plan, const sim::Scena
   }
   out += fmt::format(
       "validated: min terrain clearance {:.1f} m (h_safe {}), min separation {:.1f} m (d_safe {}), "
-      "altitude {:.0f}..{:.0f} m\nplanned in {:.3f} s\n",
+      "altitude {:.0f}..{:.0f} m\npaths: {}{}\nplanned in {:.3f} s\n",
       plan.validation.min_terrain_clearance_m, scenario.safety.terrain_clearance_m,
       plan.validation.min_separation_m, scenario.safety.separation_m,
-      plan.validation.min_altitude_m, plan.validation.max_altitude_m, plan.total_time_s);
+      plan.validation.min_altitude_m, plan.validation.max_altitude_m,
+      planning::to_string(plan.path_source),
+      plan.optimizer_message.empty() ? std::string() : " — " + plan.optimizer_message,
+      plan.total_time_s);
   return out;
 }
 

@@ -119,6 +119,33 @@ std::string validate_references(const GlobalPlanningProblem& problem,
   return first_violation;
 }
 
+struct StageFailure {
+  GlobalPlanStatus status = GlobalPlanStatus::kPlanned;  // kPlanned: no failure
+  std::string message;
+};
+
+// Stage 4: each UAV's waypoints into its reference, at cruise (times == nullptr) or passing
+// waypoint k at times[i][k] (timed mode). A limit the reference would break is a failure.
+StageFailure time_references(const std::vector<const PlannerUav*>& vehicles,
+                             const std::vector<std::vector<double>>* times,
+                             const GlobalPlannerOptions& options, std::vector<UavPlan>& uavs) {
+  for (std::size_t i = 0; i < uavs.size(); ++i) {
+    UavPlan& uav_plan = uavs[i];
+    const vehicle::VehicleParams& vehicle = vehicles[i]->vehicle;
+    uav_plan.timing = times == nullptr
+                          ? time_parametrize(uav_plan.waypoints_m, vehicle, options.timing)
+                          : time_parametrize_timed(uav_plan.waypoints_m, (*times)[i], vehicle,
+                                                   options.timing);
+    if (uav_plan.timing.status == TimeParametrizationStatus::kInvalidInput ||
+        !uav_plan.timing.reference)
+      return {GlobalPlanStatus::kInvalidInput, uav_plan.name + ": " + uav_plan.timing.message};
+    if (!uav_plan.timing.violations.empty())
+      return {GlobalPlanStatus::kValidationFailed,
+              fmt::format("{}: {}", uav_plan.name, uav_plan.timing.violations.front().description)};
+  }
+  return {};
+}
+
 }  // namespace
 
 std::string_view to_string(GlobalPlanStatus status) {
@@ -127,6 +154,16 @@ std::string_view to_string(GlobalPlanStatus status) {
     case GlobalPlanStatus::kInvalidInput: return "invalid input";
     case GlobalPlanStatus::kUnreachable: return "unreachable";
     case GlobalPlanStatus::kValidationFailed: return "validation failed";
+    case GlobalPlanStatus::kOptimizationFailed: return "optimization failed";
+  }
+  return "unknown";
+}
+
+std::string_view to_string(PathSource source) {
+  switch (source) {
+    case PathSource::kOptimized: return "optimized";
+    case PathSource::kInitialPathsOptimizerOff: return "initial paths (optimizer off)";
+    case PathSource::kInitialPathsOptimizerFailed: return "initial paths (optimizer failed)";
   }
   return "unknown";
 }
@@ -165,6 +202,8 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   }
   search.max_pitch_rad = max_pitch_rad;
   search.turn_margin_m = std::max(search.turn_margin_m, min_turn_radius_m);
+  std::vector<const PlannerUav*> flying;          // per plan.uavs entry
+  std::vector<std::vector<int>> target_indices;  // per plan.uavs entry: targets on its path
   try {
     const ClearanceGrid grid(*problem.terrain, problem.area, search);
     for (std::size_t i = 0; i < problem.uavs.size(); ++i) {
@@ -184,34 +223,84 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
         return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, path.message);
       uav_plan.waypoints_m = path.waypoints_m;
       plan.uavs.push_back(std::move(uav_plan));
+      flying.push_back(&u);
+      target_indices.push_back(path.target_waypoint_index);
     }
   } catch (const InputError& e) {
     return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, e.what());
   }
   plan.search_time_s = seconds_since(stage);
 
-  // 4. Time parametrization at cruise speed.
-  stage = Clock::now();
-  for (UavPlan& uav_plan : plan.uavs) {
-    const PlannerUav& u = *std::find_if(problem.uavs.begin(), problem.uavs.end(),
-                                        [&](const PlannerUav& x) { return x.name == uav_plan.name; });
-    uav_plan.timing = time_parametrize(uav_plan.waypoints_m, u.vehicle, options.timing);
-    if (uav_plan.timing.status == TimeParametrizationStatus::kInvalidInput ||
-        !uav_plan.timing.reference) {
-      return fail(std::move(plan), GlobalPlanStatus::kInvalidInput,
-                  uav_plan.name + ": " + uav_plan.timing.message);
+  // 3. Joint optimization (eq. 14–24) from the initial paths; its result must survive stages
+  // 4 and 5 on its own, else the initial paths are flown (or the plan fails, as configured).
+  plan.path_source = PathSource::kInitialPathsOptimizerOff;
+  if (options.optimize) {
+    stage = Clock::now();
+    TrajectoryProblem trajectory_problem;
+    trajectory_problem.terrain = problem.terrain.get();
+    for (std::size_t i = 0; i < plan.uavs.size(); ++i)
+      trajectory_problem.uavs.push_back(
+          {plan.uavs[i].name, plan.uavs[i].waypoints_m, target_indices[i], flying[i]->vehicle});
+    TrajectoryOptimizerOptions optimizer = options.optimizer;
+    optimizer.min_altitude_m = problem.min_altitude_m;
+    optimizer.max_altitude_m = problem.max_altitude_m;
+    optimizer.terrain_clearance_m = problem.terrain_clearance_m;
+    optimizer.separation_m = problem.separation_m;
+    optimizer.validation_terrain_step_m = options.validation_step_m;
+    optimizer.validation_separation_period_s = options.timing.control_period_s;
+    plan.optimization = optimize_trajectories(trajectory_problem, optimizer);
+    plan.optimization_time_s = seconds_since(stage);
+
+    std::string reason;
+    if (plan.optimization->ok()) {
+      std::vector<UavPlan> optimized = plan.uavs;
+      std::vector<std::vector<double>> times;
+      for (std::size_t i = 0; i < optimized.size(); ++i) {
+        optimized[i].waypoints_m = plan.optimization->paths[i].waypoints_m;
+        times.push_back(plan.optimization->paths[i].times_s);
+      }
+      stage = Clock::now();
+      StageFailure failure = time_references(flying, &times, options, optimized);
+      plan.timing_time_s = seconds_since(stage);
+      if (failure.status == GlobalPlanStatus::kPlanned) {
+        stage = Clock::now();
+        std::swap(plan.uavs, optimized);
+        failure.message = validate_references(problem, options, plan, plan.validation);
+        plan.validation_time_s = seconds_since(stage);
+        if (failure.message.empty()) {
+          plan.path_source = PathSource::kOptimized;
+          plan.status = GlobalPlanStatus::kPlanned;
+          plan.total_time_s = seconds_since(start);
+          return plan;
+        }
+        std::swap(plan.uavs, optimized);
+        reason = "the optimized references break a hard constraint: " + failure.message;
+      } else {
+        reason = "timing the optimized waypoints failed: " + failure.message;
+      }
+    } else {
+      reason = fmt::format("optimizer {}: {}", to_string(plan.optimization->status),
+                           plan.optimization->message);
     }
-    if (!uav_plan.timing.violations.empty()) {
-      return fail(std::move(plan), GlobalPlanStatus::kValidationFailed,
-                  fmt::format("{}: {}", uav_plan.name, uav_plan.timing.violations.front().description));
+    if (options.on_optimizer_failure == OptimizerFallback::kFail) {
+      plan.total_time_s = seconds_since(start);
+      return fail(std::move(plan), GlobalPlanStatus::kOptimizationFailed, reason);
     }
+    plan.path_source = PathSource::kInitialPathsOptimizerFailed;
+    plan.optimizer_message = std::move(reason);
   }
-  plan.timing_time_s = seconds_since(stage);
+
+  // 4. Time parametrization of the initial paths at cruise speed.
+  stage = Clock::now();
+  const StageFailure failure = time_references(flying, nullptr, options, plan.uavs);
+  plan.timing_time_s += seconds_since(stage);
+  if (failure.status != GlobalPlanStatus::kPlanned)
+    return fail(std::move(plan), failure.status, failure.message);
 
   // 5. Dense validation of the final references.
   stage = Clock::now();
   const std::string violation = validate_references(problem, options, plan, plan.validation);
-  plan.validation_time_s = seconds_since(stage);
+  plan.validation_time_s += seconds_since(stage);
   plan.total_time_s = seconds_since(start);
   if (!violation.empty()) return fail(std::move(plan), GlobalPlanStatus::kValidationFailed, violation);
   plan.status = GlobalPlanStatus::kPlanned;

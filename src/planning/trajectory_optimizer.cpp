@@ -423,6 +423,8 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     std::vector<double> x0(nlp.num_variables());
     if (previous.empty()) {
       nlp.initial_point(x0.data());
+      result.initial_costs = nlp.costs(x0.data(), &result.initial_collision_cost);
+      result.initial_objective = nlp.objective(x0.data());
     } else {
       nlp.pack(previous, x0.data());
     }

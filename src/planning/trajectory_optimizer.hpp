@@ -196,6 +196,11 @@ struct TrajectoryResult {
   std::vector<UavCost> costs;            ///< per UAV (filled on success)
   double collision_cost = 0.0;           ///< J_col
   double objective = 0.0;                ///< J of eq. 24
+  /// The same terms at the initial guess (the initial paths resampled on the grid), for
+  /// comparison; filled once the grid is built, also when the solve fails.
+  std::vector<UavCost> initial_costs;
+  double initial_collision_cost = 0.0;
+  double initial_objective = 0.0;
   PlanValidationReport validation;       ///< of the last solution that was validated
 
   int ipopt_iterations = 0;    ///< over all solves

@@ -22,6 +22,19 @@ planning::GlobalPlanningProblem make_planning_problem(
 planning::GlobalPlannerOptions make_planner_options(const Scenario& scenario) {
   planning::GlobalPlannerOptions options;
   options.timing.control_period_s = scenario.mpc.control_period_s;
+  // Stage 3 (eq. 14–24) with the scenario's grid, penalties and weights.
+  const PlannerConfig& p = scenario.planner;
+  planning::TrajectoryOptimizerOptions& o = options.optimizer;
+  o.waypoints_per_uav = p.waypoints_per_uav;
+  o.max_turn_angle_rad = p.max_turn_angle_rad;
+  o.pitch_penalty = p.pitch_penalty;
+  o.turn_penalty = p.turn_penalty;
+  o.weight_range = p.weight_range;
+  o.weight_pitch = p.weight_pitch;
+  o.weight_turn = p.weight_turn;
+  o.weight_altitude = p.weight_altitude;
+  o.lambda_individual = p.lambda_individual;
+  o.lambda_collision = p.lambda_collision;
   return options;
 }
 

@@ -10,14 +10,12 @@
 
 #include "planning/plan_validation.hpp"
 #include "planning/trajectory_nlp.hpp"
-#include "planning/trajectory_scenarios.hpp"
+#include "planning/team_scenarios.hpp"
 
 namespace ridgeline::planning {
 namespace {
 
-using testing::default_like_terrain;
-using testing::lifted_line;
-using testing::team_problem;
+
 using world::Peak;
 using world::PeakCombination;
 using world::PeakTerrain;
@@ -277,7 +275,7 @@ TEST(TrajectoryOptimizer, CrossingUavsAreSeparatedAtEqualTimes) {
 
 TEST(TrajectoryOptimizer, ThreeUavsOnDefaultLikeTerrainPassDenseValidation) {
   const PeakTerrain terrain = default_like_terrain();
-  const TrajectoryProblem problem = team_problem(terrain, 3);
+  const TrajectoryProblem problem = straight_line_team(terrain, 3);
   TrajectoryOptimizerOptions o;
   // 50 rather than the scenario's 100 waypoints keeps the test short on a loaded 2-core machine;
   // bench/trajectory_optimizer_bench.cpp measures 3 × 100 (its median is the figure to quote).

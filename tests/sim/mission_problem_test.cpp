@@ -56,6 +56,32 @@ TEST(MissionPlanning, DefaultLikeScenarioIsPlannedAndValidated) {
   }
 }
 
+TEST(MissionPlanning, ScenarioPlannerWeightsReachTheOptimizer) {
+  Scenario s;
+  s.planner.waypoints_per_uav = 77;
+  s.planner.max_turn_angle_rad = 0.9;
+  s.planner.pitch_penalty = 11.0;
+  s.planner.turn_penalty = 12.0;
+  s.planner.weight_range = 1.5;
+  s.planner.weight_pitch = 2.5;
+  s.planner.weight_turn = 3.5;
+  s.planner.weight_altitude = 4.5;
+  s.planner.lambda_individual = 5.5;
+  s.planner.lambda_collision = 6.5;
+  const planning::TrajectoryOptimizerOptions o = make_planner_options(s).optimizer;
+  EXPECT_EQ(o.waypoints_per_uav, 77);
+  EXPECT_EQ(o.max_turn_angle_rad, 0.9);
+  EXPECT_EQ(o.pitch_penalty, 11.0);
+  EXPECT_EQ(o.turn_penalty, 12.0);
+  EXPECT_EQ(o.weight_range, 1.5);
+  EXPECT_EQ(o.weight_pitch, 2.5);
+  EXPECT_EQ(o.weight_turn, 3.5);
+  EXPECT_EQ(o.weight_altitude, 4.5);
+  EXPECT_EQ(o.lambda_individual, 5.5);
+  EXPECT_EQ(o.lambda_collision, 6.5);
+  EXPECT_TRUE(make_planner_options(s).optimize);
+}
+
 TEST(MissionPlanning, UnreachableTargetIsNamed) {
   Fixture f = default_like();
   // A ring of peaks taller than the altitude ceiling around the hut.

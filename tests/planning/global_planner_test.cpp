@@ -1,0 +1,138 @@
+// The global planner's stage 3 (joint optimization) inside plan_mission: the optimized plan
+// must pass the same dense validation, and a failing optimizer must either hand over to the
+// validated initial paths, saying so, or fail with its reason — never return a violating plan.
+#include "planning/global_planner.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "planning/plan_validation.hpp"
+#include "planning/team_scenarios.hpp"
+
+namespace ridgeline::planning {
+namespace {
+
+// The default scenario's team and targets on the default-like terrain.
+GlobalPlanningProblem default_like_problem() {
+  GlobalPlanningProblem p;
+  p.terrain = std::make_shared<world::PeakTerrain>(default_like_terrain());
+  const Vec3 starts[] = {{100, 130, 60}, {130, 100, 60}, {160, 70, 60}};
+  for (int i = 0; i < 3; ++i)
+    p.uavs.push_back({"uav" + std::to_string(i + 1), starts[i], kPi / 4, vehicle::VehicleParams{}});
+  p.targets = {{"mast", Vec3(1700, 1300, 90), 2},
+               {"ridge", Vec3(1250, 1800, 110), 1},
+               {"hut", Vec3(1850, 1850, 80), 1}};
+  return p;
+}
+
+GlobalPlannerOptions fast_options() {
+  GlobalPlannerOptions o;
+  // 40 rather than the scenario's 100 waypoints keeps the test short on a loaded machine; the
+  // pipeline does not depend on the count.
+  o.optimizer.waypoints_per_uav = 40;
+  return o;
+}
+
+// Re-checks the final references with the independent plan validator (the planner's own stage 5
+// is a different implementation): samples at the control period, linear in between.
+PlanValidationReport recheck(const GlobalPlanningProblem& p, const GlobalPlan& plan) {
+  std::vector<TimedPath> paths;
+  for (const UavPlan& u : plan.uavs) {
+    TimedPath path;
+    path.name = u.name;
+    for (std::size_t k = 0; k < u.timing.samples.size(); ++k) {
+      path.waypoints_m.push_back(u.timing.samples[k].position_m);
+      path.times_s.push_back(u.timing.sample_times_s[k]);
+    }
+    paths.push_back(std::move(path));
+  }
+  PlanValidationOptions o;
+  o.min_altitude_m = p.min_altitude_m;
+  o.max_altitude_m = p.max_altitude_m;
+  o.terrain_clearance_m = p.terrain_clearance_m;
+  o.separation_m = p.separation_m;
+  return validate_plan(*p.terrain, paths, o);
+}
+
+TEST(GlobalPlanner, OptimizedPlanLowersTheCostAndPassesAnIndependentDenseCheck) {
+  const GlobalPlanningProblem p = default_like_problem();
+  const GlobalPlan plan = plan_mission(p, fast_options());
+  ASSERT_EQ(plan.status, GlobalPlanStatus::kPlanned) << plan.message;
+  ASSERT_EQ(plan.path_source, PathSource::kOptimized) << plan.optimizer_message;
+  ASSERT_TRUE(plan.optimization.has_value());
+  EXPECT_TRUE(plan.optimizer_message.empty());
+  const TrajectoryResult& r = *plan.optimization;
+  ASSERT_TRUE(r.ok()) << r.message;
+  // The initial paths are feasible points of the same NLP, so the optimum cannot cost more.
+  EXPECT_LT(r.objective, r.initial_objective);
+  ASSERT_EQ(plan.uavs.size(), r.paths.size());
+  for (std::size_t i = 0; i < plan.uavs.size(); ++i) {
+    // The flown waypoints are the optimizer's, and the timed reference passes each of them
+    // close to its grid time (timed mode; its tolerance is 0.5 s).
+    EXPECT_EQ(plan.uavs[i].waypoints_m, r.paths[i].waypoints_m);
+    EXPECT_LE(plan.uavs[i].timing.max_time_deviation_s, 0.5) << plan.uavs[i].name;
+  }
+  const PlanValidationReport check = recheck(p, plan);
+  EXPECT_TRUE(check.passed()) << check.summary();
+  EXPECT_GE(check.min_clearance_m, p.terrain_clearance_m);
+  EXPECT_GE(check.min_separation_m, p.separation_m);
+}
+
+TEST(GlobalPlanner, OptimizerFailureFallsBackToTheValidatedInitialPathsAndSaysSo) {
+  const GlobalPlanningProblem p = default_like_problem();
+  GlobalPlannerOptions o = fast_options();
+  o.optimizer.max_iterations = 2;  // cannot converge from the initial paths in two steps
+  const GlobalPlan plan = plan_mission(p, o);
+  ASSERT_EQ(plan.status, GlobalPlanStatus::kPlanned) << plan.message;
+  EXPECT_EQ(plan.path_source, PathSource::kInitialPathsOptimizerFailed);
+  EXPECT_NE(plan.optimizer_message.find("iteration limit"), std::string::npos)
+      << plan.optimizer_message;
+
+  GlobalPlannerOptions off = fast_options();
+  off.optimize = false;
+  const GlobalPlan initial = plan_mission(p, off);
+  ASSERT_EQ(initial.status, GlobalPlanStatus::kPlanned) << initial.message;
+  EXPECT_EQ(initial.path_source, PathSource::kInitialPathsOptimizerOff);
+  EXPECT_FALSE(initial.optimization.has_value());
+  ASSERT_EQ(plan.uavs.size(), initial.uavs.size());
+  for (std::size_t i = 0; i < plan.uavs.size(); ++i)
+    EXPECT_EQ(plan.uavs[i].waypoints_m, initial.uavs[i].waypoints_m);
+  const PlanValidationReport check = recheck(p, plan);
+  EXPECT_TRUE(check.passed()) << check.summary();
+}
+
+TEST(GlobalPlanner, OptimizerFailureFailsThePlanWhenFallbackIsOff) {
+  const GlobalPlanningProblem p = default_like_problem();
+  GlobalPlannerOptions o = fast_options();
+  o.optimizer.max_iterations = 2;
+  o.on_optimizer_failure = OptimizerFallback::kFail;
+  const GlobalPlan plan = plan_mission(p, o);
+  EXPECT_EQ(plan.status, GlobalPlanStatus::kOptimizationFailed);
+  EXPECT_TRUE(plan.uavs.empty());
+  EXPECT_NE(plan.message.find("iteration limit"), std::string::npos) << plan.message;
+}
+
+TEST(GlobalPlanner, AltitudeWeightPullsTheOptimizedPathsDown) {
+  // w4 (eq. 23) reaches the optimizer: a larger weight on the height above ground gives a smaller
+  // height-above-ground term J_H at the optimum (the quantity w4 weighs; the mean height of the
+  // waypoints alone is not monotone, since the paths also move sideways over other terrain).
+  const GlobalPlanningProblem p = default_like_problem();
+  auto height_term = [&](double w4) {
+    GlobalPlannerOptions o = fast_options();
+    o.optimizer.weight_altitude = w4;
+    const GlobalPlan plan = plan_mission(p, o);
+    EXPECT_EQ(plan.path_source, PathSource::kOptimized) << plan.optimizer_message;
+    double sum = 0.0;
+    if (plan.optimization)
+      for (const UavCost& c : plan.optimization->costs) sum += c.altitude;
+    return sum;
+  };
+  const double low_weight = height_term(0.05);
+  const double high_weight = height_term(0.5);
+  EXPECT_GT(low_weight, 0.0);
+  EXPECT_LT(high_weight, 0.97 * low_weight) << "J_H at w4=0.05: " << low_weight;
+}
+
+}  // namespace
+}  // namespace ridgeline::planning
