@@ -143,7 +143,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   Phi_ = MatX::Zero(np_ * ny_, nc_ * nu_);
   Yw_ = VecX::Zero(np_ * ny_);
   Yfree_ = VecX::Zero(np_ * ny_);
-  QPhi_ = MatX::Zero(np_ * ny_, nc_ * nu_);
+  SPhi_ = MatX::Zero(np_ * ny_, nc_ * nu_);
   err_ = VecX::Zero(np_ * ny_);
   qdiag_ = VecX::Zero(np_ * ny_);
   for (int j = 0; j < np_; ++j) {
@@ -151,6 +151,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
     qdiag_.segment(j * ny_, ny_) =
         terminal ? options.terminal_output_weight : options.output_weight;
   }
+  qsqrt_ = qdiag_.cwiseSqrt();  // weights were validated ≥ 0
   y_ = VecX::Zero(ny_);
   tmp_ = VecX::Zero(ns_);
   P_ = RowMatX::Zero(ns_, nxi_ + 1 + nc_ * nu_);
@@ -310,17 +311,23 @@ void IncrementalMpc::assemble_qp() {
   const int nU = nc_ * nu_;
 
   // Cost (eq. 10): H_uu = 2(ΦᵀQ̄Φ + R̄), f_u = −2ΦᵀQ̄(R − Y_free).
-  QPhi_.noalias() = qdiag_.asDiagonal() * Phi_;
+  // With S = Q̄^{1/2} (Q̄ ≥ 0), ΦᵀQ̄Φ = (SΦ)ᵀ(SΦ): a symmetric rank update costs half the
+  // flops of the general product, and this product is the largest dense one in the step.
+  SPhi_.noalias() = qsqrt_.asDiagonal() * Phi_;
   auto Huu = qp_.H.topLeftCorner(nU, nU);
-  Huu.noalias() = Phi_.transpose() * QPhi_;
-  Huu *= 2.0;
+  Huu.setZero();
+  Huu.selfadjointView<Eigen::Lower>().rankUpdate(SPhi_.transpose(), 2.0);
+  for (int c = 1; c < nU; ++c) {
+    for (int r = 0; r < c; ++r) Huu(r, c) = Huu(c, r);
+  }
   for (int i = 0; i < nc_; ++i) {
     for (int c = 0; c < nu_; ++c) Huu(i * nu_ + c, i * nu_ + c) += 2.0 * options_.move_weight[c];
   }
   for (int j = 0; j < np_; ++j) {
     err_.segment(j * ny_, ny_) = d.reference.col(j) - Yfree_.segment(j * ny_, ny_);
   }
-  qp_.f.head(nU).noalias() = -2.0 * QPhi_.transpose() * err_;
+  err_.array() *= qsqrt_.array();
+  qp_.f.head(nU).noalias() = -2.0 * SPhi_.transpose() * err_;
 
   // Move bounds Δu_min ≤ Δu ≤ Δu_max (box); slack bounds σ ≥ 0 stay as built.
   for (int i = 0; i < nc_; ++i) {

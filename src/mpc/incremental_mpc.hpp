@@ -207,7 +207,8 @@ class IncrementalMpc {
   VecX Yw_;     // Np·n_y
   VecX Yfree_;  // F ξ + Y_w
   VecX qdiag_;  // Np·n_y, diagonal of Q̄
-  MatX QPhi_;   // Q̄ Φ
+  VecX qsqrt_;  // Q̄^{1/2} (diagonal)
+  MatX SPhi_;   // Q̄^{1/2} Φ
   VecX err_;    // R − Y_free (stacked)
   VecX y_, tmp_;
   using RowMatX = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
