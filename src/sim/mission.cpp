@@ -294,6 +294,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     um.finish_time_s = finish_time[static_cast<std::size_t>(i)];
     const swarm::AgentCounters& c = a.counters();
     um.replans = static_cast<long long>(c.replans);
+    um.neighbour_conflicts = static_cast<long long>(c.neighbour_conflicts);
     um.replan_failures = static_cast<long long>(c.replan_failures);
     um.rejoins = static_cast<long long>(c.rejoins);
     um.fallback_steps = static_cast<long long>(c.fallback_steps);

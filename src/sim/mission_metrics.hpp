@@ -29,6 +29,7 @@ struct UavMetrics {
   double finish_time_s = -1.0;
   // The agent's own counters.
   long long replans = 0;
+  long long neighbour_conflicts = 0;  ///< re-plans that yielded to a neighbour
   long long replan_failures = 0;
   long long rejoins = 0;
   long long fallback_steps = 0;

@@ -49,6 +49,11 @@ Agent::Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledRefe
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
   require(options.threat_report_period_s > 0.0, "threat_report_period_s", "must be positive");
   require(options.replan_period_s > 0.0, "replan_period_s", "must be positive");
+  require(options.neighbour_lookahead_s > 0.0 && std::isfinite(options.neighbour_lookahead_s),
+          "neighbour_lookahead_s", "must be positive and finite");
+  require(options.neighbour_conflict_margin_m >= 0.0 &&
+              std::isfinite(options.neighbour_conflict_margin_m),
+          "neighbour_conflict_margin_m", "must be finite and >= 0");
   require(options.rejoin_distance_m > 0.0 && options.lost_reference_m > options.rejoin_distance_m,
           "lost_reference_m", "must exceed rejoin_distance_m > 0");
   require(options.position_filter_gain > 0.0 && options.position_filter_gain <= 1.0,
@@ -169,6 +174,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
     ++counters_.rejoins;
   }
   threat_buffer_ = known_threats();
+  const int yielded = add_neighbour_conflicts(t_s, threat_buffer_);
   const DelayedPlan plan(*reference_);
   DetourResult detour = plan_detour(plan, t_s, threat_buffer_, *terrain_, options_.detour);
   switch (detour.status) {
@@ -178,6 +184,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
     case DetourResult::Status::kPlanned:
       reference_->set_detour(std::move(detour.reference));
       ++counters_.replans;
+      if (yielded > 0) ++counters_.neighbour_conflicts;
       break;
     case DetourResult::Status::kFailed:
       // Keep tracking the plan: the MPC's threat rows still push the UAV away (soft).
@@ -185,6 +192,46 @@ void Agent::replan(double t_s, const Vec3& position_m) {
       ++counters_.replan_failures;
       break;
   }
+}
+
+int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const {
+  const double d_safe = options_.tracker.separation_m;
+  const double conflict_distance = d_safe + options_.neighbour_conflict_margin_m;
+  const double horizon = options_.neighbour_lookahead_s;
+  constexpr double kCheckStep = 0.25;   // s; at 20 m/s closing speed, 5 m between checks
+  constexpr double kStationary = 0.5;   // m/s: a neighbour this slow will not give way
+  int added = 0;
+  for (const auto& [id, n] : neighbours_) {
+    const mpc::NeighbourPrediction& nb = n.prediction;
+    const int count = static_cast<int>(nb.positions_m.size());
+    // Mean velocity over the broadcast horizon: extrapolating the last segment alone would
+    // magnify the end of a turn.
+    const Vec3 velocity = count >= 2 ? Vec3((nb.positions_m.back() - nb.positions_m.front()) /
+                                            (nb.step_s * (count - 1)))
+                                     : Vec3::Zero();
+    const double predicted_end = nb.first_time_s + nb.step_s * std::max(count - 1, 0);
+    const auto neighbour_at = [&](double t) {
+      return t <= predicted_end ? nb.position_at(t)
+                                : Vec3(nb.positions_m.back() + velocity * (t - predicted_end));
+    };
+    const bool stationary = velocity.norm() < kStationary;
+    if (!(id < options_.id || stationary)) continue;  // the other one yields
+    bool conflict = false;
+    for (double tau = t_s; tau <= t_s + horizon && !conflict; tau += kCheckStep) {
+      conflict = (neighbour_at(tau) - reference_->at(tau).position_m).norm() < conflict_distance;
+    }
+    if (!conflict) continue;
+    world::Threat obstacle;
+    obstacle.name = fmt::format("uav{}", id);
+    obstacle.centre_m = neighbour_at(t_s);
+    obstacle.velocity_m_s = velocity;
+    obstacle.radius_m = d_safe;
+    obstacle.appear_s = t_s;
+    obstacle.vanish_s = t_s + horizon;
+    obstacles.push_back(std::move(obstacle));
+    ++added;
+  }
+  return added;
 }
 
 vehicle::Input Agent::fallback_command(double t_s, const vehicle::State& state) const {

@@ -26,6 +26,13 @@
 //     look-ahead and, on a conflict, replaced by a detour (agent_reference.hpp). When the UAV
 //     has fallen more than rejoin_distance_m behind its reference (after an avoidance), it
 //     re-joins the plan at the nearest point (a delay, same validated path).
+//     Neighbour conflicts are re-planned the same way: a neighbour whose broadcast prediction,
+//     extrapolated at its mean velocity over neighbour_lookahead_s, comes within
+//     d_safe + neighbour_conflict_margin_m of this UAV's reference at equal times is a moving
+//     obstacle (radius d_safe) for the detour — but only for the UAV that yields: the one with
+//     the higher id, or either one when the other is (nearly) stationary, e.g. finished and
+//     holding. One rule known to all avoids two UAVs swerving into each other; the MPC's
+//     neighbour rows keep d_safe in any case.
 //  3. tracking: the MPC tracker with the known threats, the neighbours' broadcast predictions
 //     and the terrain as soft constraints.
 //  4. safe fallback: when the QP is not solved for fallback_after_failures consecutive steps,
@@ -75,6 +82,8 @@ struct AgentOptions {
   double neighbour_stale_s = 1.0;
   double threat_forget_s = 10.0;
   double replan_period_s = 1.0;
+  double neighbour_lookahead_s = 8.0;      ///< > 0; how far a neighbour's motion is extrapolated
+  double neighbour_conflict_margin_m = 10.0;  ///< ≥ 0, added to d_safe for the conflict test
   double rejoin_distance_m = 40.0;
   double lost_reference_m = 120.0;
   double missed_after_s = 30.0;
@@ -103,6 +112,7 @@ struct AgentCounters {
   std::uint64_t messages_rejected = 0;
   std::uint64_t stale_neighbour_steps = 0;  ///< control steps that used a stale prediction
   std::uint64_t replans = 0;                ///< detours planned
+  std::uint64_t neighbour_conflicts = 0;    ///< re-plans that yielded to a neighbour
   std::uint64_t replan_failures = 0;
   std::uint64_t rejoins = 0;
   std::uint64_t fallback_steps = 0;
@@ -164,6 +174,8 @@ class Agent {
 
   void update_mission(double t_s, const Vec3& position_m);
   void replan(double t_s, const Vec3& position_m);
+  /// Neighbours this UAV must yield to, as moving obstacles (appended to `obstacles`).
+  int add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const;
   vehicle::Input fallback_command(double t_s, const vehicle::State& state) const;
   void forget_old_threats(double t_s);
 

@@ -115,6 +115,53 @@ TEST(Agent, KnownThreatOnTheReferenceTriggersADetour) {
   EXPECT_EQ(a.prediction_message().positions_m.size(), 40u);
 }
 
+// A neighbour's broadcast: positions every 0.1 s over 4 s from `start` at `velocity`.
+PredictedTrajectory broadcast(int uav, double t_s, const Vec3& start, const Vec3& velocity) {
+  PredictedTrajectory p{uav, t_s, 0.1, {}};
+  for (int k = 1; k <= 40; ++k) p.positions_m.push_back(start + velocity * (0.1 * k));
+  return p;
+}
+
+TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourWithADetour) {
+  // Head-on at 10 m/s each from 150 m apart: they would meet at t = 7.5 s near x = 75.
+  const PredictedTrajectory head_on = broadcast(0, 0.0, Vec3(150, 0, 100), Vec3(-10, 0, 0));
+  Agent yielding(options(1, 2), line_east(0.0), flat());
+  yielding.receive(Envelope{0, 0.0, 0.0, head_on});
+  yielding.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(yielding.counters().neighbour_conflicts, 1u);
+  ASSERT_TRUE(yielding.reference().has_detour());
+  // At the meeting time the detour keeps d_safe + r_safe + clearance sideways of the neighbour.
+  const Vec3 at_meeting = yielding.reference().at(7.5).position_m;
+  EXPECT_GE(std::hypot(at_meeting.x() - 75.0, at_meeting.y()), 10.0 + 10.0 + 15.0 - 1.0);
+
+  // The lower id keeps its plan: the other one gives way.
+  Agent keeping(options(0, 2), line_east(0.0), flat());
+  PredictedTrajectory from_one = head_on;
+  from_one.uav = 1;
+  keeping.receive(Envelope{1, 0.0, 0.0, from_one});
+  keeping.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(keeping.counters().neighbour_conflicts, 0u);
+  EXPECT_FALSE(keeping.reference().has_detour());
+}
+
+TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
+  Agent a(options(0, 2), line_east(0.0), flat());
+  a.receive(Envelope{1, 0.0, 0.0, broadcast(1, 0.0, Vec3(60, 0, 100), Vec3::Zero())});
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(a.counters().neighbour_conflicts, 1u);
+  ASSERT_TRUE(a.reference().has_detour());
+  const Vec3 passing = a.reference().at(6.0).position_m;
+  EXPECT_GE(std::hypot(passing.x() - 60.0, passing.y()), 10.0 + 10.0 + 15.0 - 1.0);
+}
+
+TEST(Agent, ANeighbourOnAParallelTrackIsNoConflict) {
+  Agent a(options(1, 2), line_east(0.0), flat());
+  a.receive(Envelope{0, 0.0, 0.0, broadcast(0, 0.0, Vec3(0, 40, 100), Vec3(10, 0, 0))});
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(a.counters().neighbour_conflicts, 0u);
+  EXPECT_FALSE(a.reference().has_detour());
+}
+
 TEST(Agent, PassingTheLastTargetFinishesAndHolds) {
   Agent a(options(0, 1), line_east(0.0), flat());
   a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
