@@ -1,0 +1,125 @@
+#include "mavlink/simulated_vehicle.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/error.hpp"
+#include "mavlink/ned_frame.hpp"
+
+namespace ridgeline::mavlink {
+
+SimulatedVehicle::SimulatedVehicle(const SimulatedVehicleOptions& options) : o_(options) {
+  const std::pair<const char*, double> periods[] = {
+      {"integration_step_s", o_.integration_step_s},
+      {"report_period_s", o_.report_period_s},
+      {"heartbeat_period_s", o_.heartbeat_period_s},
+      {"setpoint_timeout_s", o_.setpoint_timeout_s}};
+  for (const auto& [name, value] : periods)
+    if (!(value > 0.0) || !std::isfinite(value))
+      throw InputError(name, fmt::format("{} must be a positive number of seconds", value));
+  if (!o_.initial_state.allFinite())
+    throw InputError("initial_state", "has a value that is not finite");
+  state_ = o_.initial_state;
+  state_[vehicle::kV] = state_[vehicle::kOmega] = state_[vehicle::kW] = 0.0;
+}
+
+FrameHeader SimulatedVehicle::next_header() {
+  return {sequence_++, o_.system_id, o_.component_id, 0};
+}
+
+Heartbeat SimulatedVehicle::heartbeat() const {
+  Heartbeat h;
+  h.type = kMavTypeHexarotor;
+  h.autopilot = kMavAutopilotPx4;
+  h.base_mode = static_cast<std::uint8_t>(kModeFlagCustomModeEnabled |
+                                          (armed_ ? kModeFlagSafetyArmed : 0));
+  h.custom_mode = offboard_ ? kPx4CustomModeOffboard : 0;
+  h.system_status = armed_ ? kMavStateActive : kMavStateStandby;
+  h.mavlink_version = 3;
+  return h;
+}
+
+void SimulatedVehicle::integrate_to(double t_s) {
+  while (t_ < t_s) {
+    const double dt = std::min(o_.integration_step_s, t_s - t_);
+    if (offboard_ && t_ - last_setpoint_s_ > o_.setpoint_timeout_s) {
+      offboard_ = false;  // PX4's offboard loss failsafe: hold
+      ++stats_.offboard_timeouts;
+    }
+    if (armed_ && offboard_) {
+      state_ = vehicle::rk4_step(state_, command_, Vec3::Zero(), o_.params, dt);
+    } else {
+      state_[vehicle::kV] = state_[vehicle::kOmega] = state_[vehicle::kW] = 0.0;
+    }
+    t_ += dt;
+  }
+}
+
+void SimulatedVehicle::handle(const Message& message, double t_s) {
+  integrate_to(t_s);
+  if (const auto* sp = std::get_if<SetPositionTargetLocalNed>(&message)) {
+    const SetpointCommand c = command_from_setpoint(*sp);
+    if (!c.command) {
+      ++stats_.setpoints_rejected;
+      stats_.last_error = "SET_POSITION_TARGET_LOCAL_NED." + c.error;
+      return;
+    }
+    ++stats_.setpoints;
+    command_ = vehicle::clamp_to_limits(*c.command, state_, o_.params);
+    last_setpoint_s_ = t_s;
+  } else if (const auto* cmd = std::get_if<CommandLong>(&message)) {
+    handle_command(*cmd, t_s);
+  }
+}
+
+void SimulatedVehicle::handle_command(const CommandLong& c, double t_s) {
+  ++stats_.commands;
+  if (c.target_system != o_.system_id && c.target_system != 0) return;  // not for us
+  auto refuse = [&](std::string why) {
+    ++stats_.commands_refused;
+    stats_.last_error = fmt::format("COMMAND_LONG {}: {}", c.command, why);
+  };
+  if (c.command == kMavCmdComponentArmDisarm) {
+    if (c.param1 == 1.0f) {
+      armed_ = true;
+    } else if (c.param1 == 0.0f) {
+      armed_ = false;
+      offboard_ = false;
+    } else {
+      refuse(fmt::format("param1 {} is neither 1 (arm) nor 0 (disarm)", c.param1));
+    }
+  } else if (c.command == kMavCmdDoSetMode) {
+    const bool custom = (static_cast<int>(c.param1) & kModeFlagCustomModeEnabled) != 0;
+    if (!custom || c.param2 != static_cast<float>(kPx4MainModeOffboard)) {
+      refuse(fmt::format("mode (param1 {}, param2 {}) is not PX4 offboard (1, 6)", c.param1,
+                         c.param2));
+    } else if (t_s - last_setpoint_s_ > o_.setpoint_timeout_s) {
+      refuse("offboard refused: no setpoint stream (send SET_POSITION_TARGET_LOCAL_NED first)");
+    } else {
+      offboard_ = true;
+    }
+  } else {
+    refuse("unsupported command");
+  }
+}
+
+void SimulatedVehicle::advance(double t_s, std::vector<EncodedFrame>& out) {
+  integrate_to(t_s);
+  if (t_s >= next_heartbeat_s_) {
+    out.push_back(encode_message(heartbeat(), next_header()));
+    next_heartbeat_s_ += o_.heartbeat_period_s;
+    if (next_heartbeat_s_ <= t_s) next_heartbeat_s_ = t_s + o_.heartbeat_period_s;
+  }
+  if (t_s >= next_report_s_) {
+    const auto ms = static_cast<std::uint32_t>(std::llround(t_s * 1000.0));
+    const StateReport r = report_state(state_, Vec3::Zero(), ms);
+    out.push_back(encode_message(r.position, next_header()));
+    out.push_back(encode_message(r.attitude, next_header()));
+    next_report_s_ += o_.report_period_s;
+    if (next_report_s_ <= t_s) next_report_s_ = t_s + o_.report_period_s;
+  }
+}
+
+}  // namespace ridgeline::mavlink
