@@ -218,6 +218,12 @@ void parse_planner(YamlMap& m, sim::PlannerConfig& p) {
     p.lambda_collision = cm.get_double("collision", p.lambda_collision);
     cm.finish();
   }
+  if (auto a = m.optional("allocation")) {
+    YamlMap am = a->as_map();
+    p.allocation_makespan_weight = am.get_double("makespan_weight", p.allocation_makespan_weight);
+    p.allocation_priority_weight = am.get_double("priority_weight", p.allocation_priority_weight);
+    am.finish();
+  }
   m.finish();
 }
 

@@ -35,6 +35,8 @@ planning::GlobalPlannerOptions make_planner_options(const Scenario& scenario) {
   o.weight_altitude = p.weight_altitude;
   o.lambda_individual = p.lambda_individual;
   o.lambda_collision = p.lambda_collision;
+  options.allocation.makespan_weight = p.allocation_makespan_weight;
+  options.allocation.priority_weight = p.allocation_priority_weight;
   return options;
 }
 

@@ -200,6 +200,8 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
   c.non_negative("planner.weights.altitude", p.weight_altitude);
   c.non_negative("planner.cluster.individual", p.lambda_individual);
   c.non_negative("planner.cluster.collision", p.lambda_collision);
+  c.non_negative("planner.allocation.makespan_weight", p.allocation_makespan_weight);
+  c.non_negative("planner.allocation.priority_weight", p.allocation_priority_weight);
 
   const SimulationConfig& sim = s.simulation;
   c.positive("simulation.duration_s", sim.duration_s);

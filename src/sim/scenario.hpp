@@ -99,6 +99,10 @@ struct PlannerConfig {
   double weight_altitude = 0.1;                  ///< w4
   double lambda_individual = 1.0;                ///< λ1, eq. 24
   double lambda_collision = 10.0;                ///< λ2
+  /// Target allocation J = λ·max_i C_i + Σ_i C_i + β·Σ_j π_j A_j (target_allocation.hpp):
+  /// a larger λ spreads the targets over more UAVs (shorter mission, more total range).
+  double allocation_makespan_weight = 1.0;       ///< λ ≥ 0
+  double allocation_priority_weight = 0.1;       ///< β ≥ 0
 };
 
 struct SimulationConfig {

@@ -145,6 +145,9 @@ TEST(ScenarioFile, NegativeRadiusAndTimeConstantAreRejected) {
               HasSubstr("uavs[0].vehicle.tau_omega_s: must be positive"));
   EXPECT_THAT(load_error([](YAML::Node& r) { r["terrain"]["peaks"][3]["sigma_x_m"] = 0; }),
               HasSubstr("terrain.peaks[3].sigma_x_m: must be positive"));
+  EXPECT_THAT(
+      load_error([](YAML::Node& r) { r["planner"]["allocation"]["makespan_weight"] = -2; }),
+      HasSubstr("planner.allocation.makespan_weight: must not be negative, got -2"));
 }
 
 TEST(ScenarioFile, MinAboveMaxIsRejected) {

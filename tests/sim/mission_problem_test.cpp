@@ -80,6 +80,11 @@ TEST(MissionPlanning, ScenarioPlannerWeightsReachTheOptimizer) {
   EXPECT_EQ(o.lambda_individual, 5.5);
   EXPECT_EQ(o.lambda_collision, 6.5);
   EXPECT_TRUE(make_planner_options(s).optimize);
+  s.planner.allocation_makespan_weight = 7.5;
+  s.planner.allocation_priority_weight = 0.25;
+  const planning::AllocationOptions a = make_planner_options(s).allocation;
+  EXPECT_EQ(a.makespan_weight, 7.5);
+  EXPECT_EQ(a.priority_weight, 0.25);
 }
 
 TEST(MissionPlanning, UnreachableTargetIsNamed) {
