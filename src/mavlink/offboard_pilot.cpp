@@ -93,6 +93,7 @@ void OffboardPilot::tick(double t_s, std::vector<EncodedFrame>& out) {
         next_command_s_ = t_s + o_.command_retry_s;
       }
     } else if (!vehicle_offboard_) {
+      if (phase_ != PilotPhase::kStartingOffboard) next_command_s_ = t_s;  // armed: go on now
       phase_ = PilotPhase::kStartingOffboard;
       if (t_s >= next_command_s_) {
         out.push_back(encode_message(

@@ -77,6 +77,14 @@ void SimulatedVehicle::handle(const Message& message, double t_s) {
 void SimulatedVehicle::handle_command(const CommandLong& c, double t_s) {
   ++stats_.commands;
   if (c.target_system != o_.system_id && c.target_system != 0) return;  // not for us
+  // A change of arming or mode is announced with the next report, not a second later.
+  struct AnnounceChange {
+    SimulatedVehicle& v;
+    bool armed, offboard;
+    ~AnnounceChange() {
+      if (v.armed_ != armed || v.offboard_ != offboard) v.next_heartbeat_s_ = v.t_;
+    }
+  } announce{*this, armed_, offboard_};
   auto refuse = [&](std::string why) {
     ++stats_.commands_refused;
     stats_.last_error = fmt::format("COMMAND_LONG {}: {}", c.command, why);

@@ -8,7 +8,8 @@
 //    in bits 16–23 (OFFBOARD = 6), system_status STANDBY or ACTIVE;
 //  - LOCAL_POSITION_NED and ATTITUDE every report_period_s (50 Hz);
 //  - COMMAND_LONG MAV_CMD_COMPONENT_ARM_DISARM (param1 1 arms, 0 disarms) and MAV_CMD_DO_SET_MODE
-//    (param1 with CUSTOM_MODE_ENABLED, param2 = main mode 6) to enter offboard. Like PX4, it
+//    (param1 with CUSTOM_MODE_ENABLED, param2 = main mode 6) to enter offboard; a change of
+//    arming or mode is announced by a HEARTBEAT with the next report (there is no COMMAND_ACK). Like PX4, it
 //    refuses offboard unless setpoints are streaming (one within setpoint_timeout_s), and
 //    leaves offboard (and holds) when they stop for longer than that;
 //  - SET_POSITION_TARGET_LOCAL_NED: the command u = [v_c, ω_c, w_c] (ned_frame.hpp); a
