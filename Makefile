@@ -6,7 +6,7 @@ BUILD_TYPE ?= Release
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 
-.PHONY: run test build deps configure clean asan
+.PHONY: run test build deps node-deps configure clean asan
 
 deps:
 	@./scripts/install-deps.sh
@@ -22,8 +22,21 @@ build: configure
 run: build
 	$(BUILD_DIR)/ridgeline run --out out/default
 
-test: build
+test: build node-deps
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
+
+# node-mavlink, the independent MAVLink decoder the tests check ours against, from its lock
+# file; only when missing or out of date, and silently. Node.js and npm come from apt if absent.
+MAVLINK_CHECK := tools/mavlink-check
+node-deps: $(MAVLINK_CHECK)/node_modules/.package-lock.json
+	@:
+
+$(MAVLINK_CHECK)/node_modules/.package-lock.json: $(MAVLINK_CHECK)/package.json $(MAVLINK_CHECK)/package-lock.json
+	@command -v npm >/dev/null || { echo "node-deps: installing nodejs npm"; \
+	  sudo=$$([ "$$(id -u)" -ne 0 ] && echo sudo); $$sudo apt-get update -qq && \
+	  $$sudo apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null; }
+	@npm ci --prefix $(MAVLINK_CHECK) --no-audit --no-fund --loglevel=error >/dev/null
+	@touch $@
 
 # Address and undefined-behaviour sanitizers over the whole test suite.
 asan:
