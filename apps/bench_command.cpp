@@ -1,17 +1,62 @@
 // `ridgeline bench mpc [--steps N] [--ipopt-every K]`: measures the tracker's full 50 Hz step
 // and compares its QP solver with Ipopt on the same QPs, printing JSON. Figures are medians and
 // ratios from one run: absolute times vary on shared machines.
+#include <algorithm>
 #include <iostream>
 
+#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
+#include "sim/mission_problem.hpp"
 #include "sim/mpc_benchmark.hpp"
+#include "sim/plan_benchmark.hpp"
 
 namespace ridgeline::apps {
 
 void register_bench_command(CLI::App& app) {
   CLI::App* bench = app.add_subcommand("bench", "Speed measurements, printed as JSON");
   bench->require_subcommand(1);
+
+  // `ridgeline bench plan [--scenario FILE] [--repeats N] [--scaling-repeats N] [--max-uavs N]
+  // [--max-waypoints N] [--budget-s S]`: the global planner (plan_mission, all stages) on the
+  // default scenario, then a scaling table of 3, 10, 30 UAVs x 100, 200 waypoints
+  // (sim/plan_benchmark.hpp). Large rows take long: --max-uavs / --max-waypoints drop them.
+  struct PlanCommandOptions {
+    std::string scenario;
+    sim::PlanBenchmarkOptions benchmark;
+    int max_uavs = 30;
+    int max_waypoints = 200;
+  };
+  auto plan_options = std::make_shared<PlanCommandOptions>();
+  CLI::App* plan = bench->add_subcommand(
+      "plan", "The global planner's wall time on the default scenario and a scaling table");
+  plan->add_option("--scenario", plan_options->scenario, "Scenario YAML (default: embedded)");
+  plan->add_option("--repeats", plan_options->benchmark.repeats, "timed plans of the scenario")
+      ->capture_default_str();
+  plan->add_option("--scaling-repeats", plan_options->benchmark.scaling_repeats,
+                   "timed plans per scaling row (0: no scaling table)")
+      ->capture_default_str();
+  plan->add_option("--max-uavs", plan_options->max_uavs, "leave out scaling rows with more UAVs")
+      ->capture_default_str();
+  plan->add_option("--max-waypoints", plan_options->max_waypoints,
+                   "leave out scaling rows with more waypoints")
+      ->capture_default_str();
+  plan->add_option("--budget-s", plan_options->benchmark.scaling_time_budget_s,
+                   "optimizer time budget per plan in the scaling rows")
+      ->capture_default_str();
+  plan->callback([plan_options] {
+    sim::PlanBenchmarkOptions o = plan_options->benchmark;
+    if (o.repeats < 1) throw InputError("--repeats", "must be at least 1");
+    if (o.scaling_repeats < 0) throw InputError("--scaling-repeats", "must not be negative");
+    if (!(o.scaling_time_budget_s > 0.0)) throw InputError("--budget-s", "must be positive");
+    std::erase_if(o.uav_counts, [&](int n) { return n > plan_options->max_uavs; });
+    std::erase_if(o.waypoint_counts, [&](int n) { return n > plan_options->max_waypoints; });
+    const io::LoadedScenario loaded = load_scenario_argument(plan_options->scenario);
+    const sim::PlanBenchmarkReport report = sim::run_plan_benchmark(
+        sim::make_planning_problem(loaded.scenario, loaded.terrain),
+        sim::make_planner_options(loaded.scenario), o);
+    std::cout << report.to_json().dump(2) << '\n';
+  });
   auto options = std::make_shared<sim::MpcBenchmarkOptions>();
   CLI::App* mpc = bench->add_subcommand(
       "mpc", "The MPC step (Np 40, Nc 10, 3 threats, 2 neighbours, terrain) and our QP vs Ipopt");

@@ -1,5 +1,6 @@
 #include "planning/trajectory_nlp.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <ceres/jet.h>
 #include <fmt/format.h>
 
@@ -91,6 +92,17 @@ struct Dual2 {
     return r;
   }
 };
+
+// The nearest positive semidefinite matrix (in the Frobenius norm) to a symmetric h: its
+// negative eigenvalues set to zero. h' − h is itself positive semidefinite, so a sum of projected
+// element blocks only ever adds curvature to the exact Hessian.
+template <int N>
+void project_to_psd(Eigen::Matrix<double, N, N>& h) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eigen(h);
+  if (eigen.eigenvalues().minCoeff() >= 0.0) return;
+  h = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
+      eigen.eigenvectors().transpose();
+}
 
 Eigen::Matrix2d terrain_hessian(const world::Terrain& terrain, double x, double y) {
   const double h = kTerrainHessianStep_m;
@@ -291,6 +303,11 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
   hess_slot_.reserve(entries.size());
   for (const auto& e : entries)
     hess_slot_.push_back(static_cast<int>(std::lower_bound(unique.begin(), unique.end(), e) - unique.begin()));
+}
+
+TrajectoryNlp::RowKey TrajectoryNlp::row_key(int row) const {
+  const Row& r = rows_[static_cast<std::size_t>(row)];
+  return RowKey{static_cast<int>(r.kind), r.uav, r.other, r.k, r.tau};
 }
 
 int TrajectoryNlp::point(int uav, int k) const {
@@ -658,6 +675,7 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
   const auto& o = setup_.options;
   const world::Terrain& terrain = *setup_.terrain;
   const double l1 = sigma * o.lambda_individual;
+  const bool convex = o.convexify_hessian;
   auto add_lower = [&](int a, int b, double value) {
     if (a >= b) {
       add(a, b, value);
@@ -688,6 +706,7 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       const D dy = b[1] - a[1];
       const D h2 = dx * dx + dy * dy;
       f += lambda[r[0]] * h2;  // speed row (the pitch rows are linear)
+      if (convex) project_to_psd(f.H);
       for (int m = 0; m < 6; ++m)
         for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
     }
@@ -706,16 +725,18 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       vertex_parts(p[0], p[1], p[2], q, parts);
       D f = l1 * (o.weight_range * parts[0] + o.weight_turn * parts[1]);
       f += lambda[turn_rows_[i][k]] * turn_cosine(p[0], p[1], p[2]);
+      if (convex) project_to_psd(f.H);
       for (int m = 0; m < 9; ++m)
         for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
     }
     const double coef = l1 * o.weight_altitude * q.nominal_m / o.altitude_scale_m;
     for (int k = 0; k <= n; ++k) {
       const int vp = 3 * point(i, k);
-      const Eigen::Matrix2d H = terrain_hessian(terrain, x[vp], x[vp + 1]);
-      add(vp, vp, -coef * H(0, 0));
-      add(vp + 1, vp, -coef * H(1, 0));
-      add(vp + 1, vp + 1, -coef * H(1, 1));
+      Eigen::Matrix2d H = -coef * terrain_hessian(terrain, x[vp], x[vp + 1]);
+      if (convex) project_to_psd(H);
+      add(vp, vp, H(0, 0));
+      add(vp + 1, vp, H(1, 0));
+      add(vp + 1, vp + 1, H(1, 1));
     }
   }
   for (std::size_t ri = 0; ri < rows_.size(); ++ri) {
@@ -725,10 +746,13 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       for (int m = 0; m < row.num_terms; ++m)
         qp += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
                                          x[3 * row.terms[m].point + 2]);
-      const Eigen::Matrix2d H = terrain_hessian(terrain, qp.x(), qp.y());
+      // λ·∇²(z − H(q)) = −λ·∇²H on (x, y) of q = Σ w_m p_m: the block of points m, c is
+      // w_m·w_c·(−λ∇²H), positive semidefinite when −λ∇²H is (w wᵀ is).
+      Eigen::Matrix2d H = -lambda[ri] * terrain_hessian(terrain, qp.x(), qp.y());
+      if (convex) project_to_psd(H);
       for (int m = 0; m < row.num_terms; ++m)
         for (int c = 0; c <= m; ++c) {
-          const double w = -lambda[ri] * row.terms[m].weight * row.terms[c].weight;
+          const double w = row.terms[m].weight * row.terms[c].weight;
           const int pm = 3 * row.terms[m].point;
           const int pc = 3 * row.terms[c].point;
           for (int d = 0; d < 2; ++d)
@@ -736,9 +760,11 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
               if (m != c || e <= d) add_lower(pm + d, pc + e, w * H(d, e));
         }
     } else if (row.kind == RowKind::kSeparation) {
+      // λ·∇²|r|² = 2λ·(w wᵀ ⊗ I): positive semidefinite for λ ≥ 0, else dropped when convex.
+      const double scale = convex ? std::max(lambda[ri], 0.0) : lambda[ri];
       for (int m = 0; m < row.num_terms; ++m)
         for (int c = 0; c <= m; ++c) {
-          const double w = 2.0 * lambda[ri] * row.terms[m].weight * row.terms[c].weight;
+          const double w = 2.0 * scale * row.terms[m].weight * row.terms[c].weight;
           for (int d = 0; d < 3; ++d)
             add_lower(3 * row.terms[m].point + d, 3 * row.terms[c].point + d, w);
         }
@@ -757,6 +783,8 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
     if (e > 0.0)
       H = sigma * o.lambda_collision * l *
           (8.0 * r * r.transpose() / (dc2 * dc2) - 4.0 * e / dc2 * Eigen::Matrix3d::Identity());
+    // The pair's block is [H −H; −H H] = [1 −1; −1 1] ⊗ H: positive semidefinite when H is.
+    if (convex) project_to_psd(H);
     for (int d = 0; d < 3; ++d)
       for (int c = 0; c < 3; ++c) {
         if (c <= d) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <compare>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,19 @@ class TrajectoryNlp {
   std::string worst_rows(const double* x, int max_lines) const;
 
   const NlpSetup& setup() const { return setup_; }
+
+  /// What a row constrains, independent of its position in this NLP: a refined NLP (more
+  /// samples, more candidates) keeps the keys of the rows it shares with the previous one, so
+  /// their multipliers can warm-start the next solve.
+  struct RowKey {
+    int kind = 0;
+    int uav = 0;
+    int other = -1;
+    int k = 0;
+    double tau = 0.0;
+    auto operator<=>(const RowKey&) const = default;
+  };
+  RowKey row_key(int row) const;
 
  private:
   enum class RowKind { kSpeed, kClimb, kPitchUp, kPitchDown, kTurn, kTerrain, kSeparation };

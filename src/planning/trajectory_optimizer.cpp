@@ -26,13 +26,23 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+// Bound and row multipliers of a solve, to warm-start the next one.
+struct Multipliers {
+  std::vector<double> z_lower;
+  std::vector<double> z_upper;
+  std::vector<double> lambda;
+  bool empty() const { return lambda.empty() && z_lower.empty(); }
+};
+
 // Ipopt adapter around the solver-independent transcription.
 class IpoptAdapter : public Ipopt::TNLP {
  public:
-  IpoptAdapter(const TrajectoryNlp& nlp, std::vector<double> x0, bool exact_hessian)
-      : nlp_(nlp), x0_(std::move(x0)), x_(x0_), exact_hessian_(exact_hessian) {}
+  IpoptAdapter(const TrajectoryNlp& nlp, std::vector<double> x0, bool exact_hessian,
+               Multipliers warm = {})
+      : nlp_(nlp), x0_(std::move(x0)), x_(x0_), exact_hessian_(exact_hessian), warm_(std::move(warm)) {}
 
   const std::vector<double>& x() const { return x_; }
+  const Multipliers& multipliers() const { return final_; }
   Ipopt::SolverReturn status() const { return status_; }
 
   bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac, Ipopt::Index& nnz_h,
@@ -50,10 +60,19 @@ class IpoptAdapter : public Ipopt::TNLP {
     return true;
   }
   bool get_starting_point(Ipopt::Index n, bool init_x, Ipopt::Number* x, bool init_z,
-                          Ipopt::Number*, Ipopt::Number*, Ipopt::Index, bool init_lambda,
-                          Ipopt::Number*) override {
-    if (!init_x || init_z || init_lambda) return false;
+                          Ipopt::Number* z_l, Ipopt::Number* z_u, Ipopt::Index m, bool init_lambda,
+                          Ipopt::Number* lambda) override {
+    if (!init_x) return false;
+    if ((init_z || init_lambda) &&
+        (static_cast<Ipopt::Index>(warm_.z_lower.size()) != n ||
+         static_cast<Ipopt::Index>(warm_.lambda.size()) != m))
+      return false;
     std::copy(x0_.begin(), x0_.begin() + n, x);
+    if (init_z) {
+      std::copy(warm_.z_lower.begin(), warm_.z_lower.end(), z_l);
+      std::copy(warm_.z_upper.begin(), warm_.z_upper.end(), z_u);
+    }
+    if (init_lambda) std::copy(warm_.lambda.begin(), warm_.lambda.end(), lambda);
     return true;
   }
   bool get_scaling_parameters(Ipopt::Number& obj_scaling, bool& use_x_scaling, Ipopt::Index,
@@ -98,11 +117,14 @@ class IpoptAdapter : public Ipopt::TNLP {
     return true;
   }
   void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x,
-                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Index,
-                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Number,
+                         const Ipopt::Number* z_l, const Ipopt::Number* z_u, Ipopt::Index m,
+                         const Ipopt::Number*, const Ipopt::Number* lambda, Ipopt::Number,
                          const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
     status_ = status;
     x_.assign(x, x + n);
+    final_.z_lower.assign(z_l, z_l + n);
+    final_.z_upper.assign(z_u, z_u + n);
+    final_.lambda.assign(lambda, lambda + m);
   }
 
  private:
@@ -111,6 +133,8 @@ class IpoptAdapter : public Ipopt::TNLP {
   std::vector<double> x_;
   Ipopt::SolverReturn status_ = Ipopt::INTERNAL_ERROR;
   bool exact_hessian_ = true;
+  Multipliers warm_;
+  Multipliers final_;
 };
 
 std::string check_options(const TrajectoryOptimizerOptions& o) {
@@ -412,6 +436,8 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   validation.separation_period_s = options.validation_separation_period_s;
 
   std::vector<std::vector<Vec3>> previous;
+  std::map<TrajectoryNlp::RowKey, double> previous_lambda;  // by row, from the last solve
+  Multipliers previous_bounds;                              // variables do not change
   for (int round = 0; round <= options.max_refinements; ++round) {
     setup.candidates.clear();
     for (const auto& [key, c] : candidates) setup.candidates.push_back(c);
@@ -421,12 +447,24 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     result.separation_rows = nlp.separation_rows();
 
     std::vector<double> x0(nlp.num_variables());
+    Multipliers warm;
     if (previous.empty()) {
       nlp.initial_point(x0.data());
       result.initial_costs = nlp.costs(x0.data(), &result.initial_collision_cost);
       result.initial_objective = nlp.objective(x0.data());
     } else {
       nlp.pack(previous, x0.data());
+      // A refinement keeps every row and adds some: the shared rows start from their last
+      // multipliers, the new ones from zero.
+      if (options.warm_start_refinements &&
+          previous_bounds.z_lower.size() == static_cast<std::size_t>(nlp.num_variables())) {
+        warm.z_lower = previous_bounds.z_lower;
+        warm.z_upper = previous_bounds.z_upper;
+        warm.lambda.assign(nlp.num_constraints(), 0.0);
+        for (int r = 0; r < nlp.num_constraints(); ++r)
+          if (auto it = previous_lambda.find(nlp.row_key(r)); it != previous_lambda.end())
+            warm.lambda[r] = it->second;
+      }
     }
     const double remaining_s = options.time_budget_s - seconds_since(t_start);
     if (remaining_s <= 0.0)
@@ -447,9 +485,17 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     app->Options()->SetNumericValue("constr_viol_tol", options.constraint_tolerance);
     app->Options()->SetIntegerValue("max_iter", options.max_iterations);
     app->Options()->SetNumericValue("max_cpu_time", remaining_s);
+    if (!warm.empty()) {
+      app->Options()->SetStringValue("warm_start_init_point", "yes");
+      app->Options()->SetNumericValue("mu_init", options.warm_start_mu);
+      app->Options()->SetNumericValue("warm_start_bound_push", 1e-6);
+      app->Options()->SetNumericValue("warm_start_slack_bound_push", 1e-6);
+      app->Options()->SetNumericValue("warm_start_mult_bound_push", 1e-6);
+    }
     if (app->Initialize() != Ipopt::Solve_Succeeded)
       return fail(TrajectoryStatus::kSolverError, "Ipopt failed to initialize");
-    Ipopt::SmartPtr<IpoptAdapter> adapter = new IpoptAdapter(nlp, x0, options.exact_hessian);
+    Ipopt::SmartPtr<IpoptAdapter> adapter =
+        new IpoptAdapter(nlp, x0, options.exact_hessian, std::move(warm));
     const auto t_solve = Clock::now();
     app->OptimizeTNLP(adapter);
     result.solve_time_s += seconds_since(t_solve);
@@ -484,9 +530,15 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     for (const PlanViolation& v : result.validation.violations) {
       const double extra = v.amount_m + 0.1;
       if (v.kind == ViolationKind::kTerrainClearance) {
-        const int k = std::min(v.segment, grid[v.uav].segments() - 1);
-        int& samples = setup.terrain_samples[v.uav][k];
-        samples = 2 * samples + 1;
+        // The violated segment gets more samples and margin; its neighbours get more samples
+        // too, since the re-solve may slide the waypoints so the same terrain feature falls
+        // on the next segment.
+        const int n = grid[v.uav].segments();
+        const int k = std::min(v.segment, n - 1);
+        for (int kk = std::max(0, k - 1); kk <= std::min(n - 1, k + 1); ++kk) {
+          int& samples = setup.terrain_samples[v.uav][kk];
+          samples = 2 * samples + 1;
+        }
         for (int p : {k, k + 1}) setup.clearance_extra_m[v.uav][p] += extra;
       } else if (v.kind == ViolationKind::kSeparation) {
         const int k = std::clamp(static_cast<int>(std::floor(v.time_s / dt)), 0, max_index);
@@ -503,6 +555,10 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       // segment. They can only come from Ipopt's bound relaxation and are reported as such.
     }
     previous = waypoints;
+    previous_bounds = adapter->multipliers();
+    previous_lambda.clear();
+    for (int r = 0; r < nlp.num_constraints(); ++r)
+      previous_lambda[nlp.row_key(r)] = previous_bounds.lambda[static_cast<std::size_t>(r)];
   }
   std::string message = fmt::format("every one of {} solve(s) broke a hard constraint in the dense "
                                     "check; last: {}",

@@ -1,0 +1,88 @@
+// The global planner's workload for `ridgeline bench plan` (issue 4, item 8): the full
+// plan_mission (allocation, initial paths, joint Ipopt optimization eq. 14–24, time
+// parametrization, dense validation) on a base problem — the default scenario at its 3 UAVs ×
+// 100 waypoints — timed `repeats` times, then a scaling table: the same terrain and area grown
+// to 3, 10 and 30 UAVs (planning::scaled_team: extra UAVs start in rows behind the base starts,
+// extra targets fill a lattice over the target area) at 100 and 200 waypoints.
+//
+// Each plan is timed whole, in wall-clock time (plan_s, what the issue's target is about) and in
+// process CPU time (plan_cpu_s: robust to other load on a shared machine). Every row says how the
+// plan ended: its status, which waypoints it flies (path_source: "optimized", or the initial
+// paths when the optimizer failed, with the optimizer's reason) and the optimizer's own status,
+// so a fast row that fell back is never mistaken for a fast optimization.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "planning/global_planner.hpp"
+#include "sim/statistics.hpp"
+
+namespace ridgeline::sim {
+
+struct PlanBenchmarkOptions {
+  int repeats = 5;                          ///< timed plans of the base problem (≥ 1)
+  std::vector<int> uav_counts = {3, 10, 30};
+  std::vector<int> waypoint_counts = {100, 200};
+  int scaling_repeats = 1;                  ///< timed plans per scaling row (0: no table)
+  /// Optimizer time budget per plan in the scaling rows (TrajectoryOptimizerOptions::
+  /// time_budget_s); a row that runs out says so (path_source, optimizer_status).
+  double scaling_time_budget_s = 60.0;
+};
+
+/// One plan_mission call, summarized.
+struct PlanRun {
+  double plan_s = 0.0;       ///< wall clock of plan_mission
+  double plan_cpu_s = 0.0;   ///< process CPU time of plan_mission
+  planning::GlobalPlan plan;
+};
+
+struct PlanScalingRow {
+  int uavs = 0;
+  int waypoints = 0;
+  int targets = 0;
+  Percentiles plan_s;
+  Percentiles plan_cpu_s;
+  double optimizer_s = 0.0;        ///< stage 3 of the last run (setup, Ipopt, its validation)
+  double ipopt_s = 0.0;            ///< Ipopt alone, all solves
+  int ipopt_iterations = 0;
+  int solves = 0;                  ///< 1 + refinement rounds
+  int variables = 0;
+  int constraints = 0;
+  int separation_rows = 0;
+  std::string status;              ///< GlobalPlanStatus text
+  std::string path_source;         ///< PathSource text
+  std::string optimizer_status;    ///< TrajectoryStatus text ("" when stage 3 did not run)
+  std::string message;             ///< the plan's or the optimizer's reason when not optimized
+  double objective = 0.0;          ///< J of eq. 24 at the optimizer's result (0 on failure)
+  double initial_objective = 0.0;  ///< J at the initial paths on the same grid
+  double min_clearance_m = 0.0;    ///< dense validation of the flown references
+  double min_separation_m = 0.0;
+  double stage_s[5] = {};          ///< allocation, initial paths, optimization, timing, validation
+  nlohmann::json to_json() const;
+};
+
+struct PlanBenchmarkReport {
+  PlanScalingRow base;                 ///< the base problem over `repeats` runs
+  std::vector<PlanScalingRow> scaling;
+  nlohmann::json to_json() const;     ///< {"plan_s": {...}, "plan_cpu_s", ..., "scaling": [...]}
+};
+
+/// Times plan_mission once on `problem` with `options`.
+PlanRun time_plan(const planning::GlobalPlanningProblem& problem,
+                  const planning::GlobalPlannerOptions& options);
+
+/// Runs `runs` timed plans and summarizes them (the last run's details).
+PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
+                            const planning::GlobalPlannerOptions& options, int runs);
+
+/// The whole benchmark on a base problem and its planner options (e.g. the default scenario's,
+/// from make_planning_problem and make_planner_options). Throws InputError on bad options or a
+/// size scaled_team cannot build.
+PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& base,
+                                       const planning::GlobalPlannerOptions& base_options,
+                                       const PlanBenchmarkOptions& options = {});
+
+}  // namespace ridgeline::sim
