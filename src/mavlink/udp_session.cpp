@@ -1,5 +1,6 @@
 #include "mavlink/udp_session.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -52,7 +53,8 @@ SessionReport serve_vehicle(SimulatedVehicle& vehicle, UdpLink& link, double dur
                   [&](const Message& m, double t) { vehicle.handle(m, t); });
     vehicle.advance(seconds_since(start), out);
     send_all(link, out, report);
-    next_tick += period;
+    // A late tick is not made up for with a burst of ticks: the schedule moves on.
+    next_tick = std::max(next_tick + period, seconds_since(start));
   }
   report.parser = parser.stats();
   report.wall_time_s = seconds_since(start);
@@ -78,7 +80,7 @@ SessionReport fly_pilot(OffboardPilot& pilot, UdpLink& link, double control_peri
           parser.stats().rejected()));
     pilot.tick(now, out);
     send_all(link, out, report);
-    next_tick += control_period_s;
+    next_tick = std::max(next_tick + control_period_s, seconds_since(start));
   }
   report.parser = parser.stats();
   report.wall_time_s = seconds_since(start);

@@ -1,0 +1,111 @@
+// `ridgeline fly --uav I --udp HOST:PORT [--scenario FILE] [--duration S] [--out FILE]`: the
+// offboard companion. It plans the mission (the global planner, as `ridgeline plan`), takes
+// UAV I's reference (index from 0), and flies it through a MAVLink v2 vehicle at HOST:PORT
+// (UDP; PX4 or `ridgeline vehicle-sim`): arms, switches to offboard, streams the tracker's
+// commands at the MPC rate (50 Hz) as SET_POSITION_TARGET_LOCAL_NED (velocity + yaw rate) with
+// a heartbeat at 1 Hz, and reads LOCAL_POSITION_NED and ATTITUDE back into the tracker. Mission
+// time 0 is the moment the vehicle reports offboard; the flight lasts --duration seconds
+// (default: to the end of the reference). Prints the tracking error against the reference;
+// --out writes it as JSON. Exit 5 when the vehicle left offboard before the end.
+#include <iostream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "apps/command_support.hpp"
+#include "apps/commands.hpp"
+#include "core/error.hpp"
+#include "io/atomic_file.hpp"
+#include "mavlink/udp_session.hpp"
+#include "sim/mission.hpp"
+
+namespace ridgeline::apps {
+
+void register_fly_command(CLI::App& app) {
+  struct Args {
+    int uav = 0;
+    std::string udp;
+    std::string scenario;
+    std::optional<double> duration_s;
+    std::string out;
+    double start_timeout_s = 10.0;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "fly", "Fly one UAV's planned reference through a MAVLink vehicle over UDP (offboard)");
+  cmd->add_option("--uav", args->uav, "Index of the scenario's UAV to fly (from 0)")->required();
+  cmd->add_option("--udp", args->udp, "The vehicle's HOST:PORT, e.g. 127.0.0.1:14540")->required();
+  cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
+  cmd->add_option("--duration", args->duration_s, "Seconds of flight (default: the whole reference)");
+  cmd->add_option("--out", args->out, "Write the flight's summary as JSON to this file");
+  cmd->add_option("--start-timeout", args->start_timeout_s,
+                  "Seconds to wait for the vehicle to be armed and in offboard")
+      ->capture_default_str();
+  cmd->callback([args] {
+    const auto [host, port] = mavlink::parse_host_port(args->udp);
+    if (args->duration_s && !(*args->duration_s > 0.0))
+      throw InputError("--duration", fmt::format("{} s is not positive", *args->duration_s));
+    const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
+    const sim::Scenario& sc = loaded.scenario;
+    const int n = static_cast<int>(sc.uavs.size());
+    if (args->uav < 0 || args->uav >= n)
+      throw InputError("--uav", fmt::format("{} is not a UAV of the scenario (0..{})", args->uav, n - 1));
+    const sim::UavSpec& uav = sc.uavs[static_cast<std::size_t>(args->uav)];
+    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
+    if (!plan) return;
+    const auto it = std::find_if(plan->uavs.begin(), plan->uavs.end(),
+                                 [&](const planning::UavPlan& p) { return p.name == uav.name; });
+    if (it == plan->uavs.end() || !it->timing.reference)
+      throw InputError("--uav", fmt::format("{} ({}) has no reference: the allocation left it idle",
+                                            args->uav, uav.name));
+    const auto reference = std::make_shared<const mpc::SampledReference>(*it->timing.reference);
+
+    mavlink::OffboardPilotOptions o;
+    o.tracker = sim::make_tracker_options(sc, uav);
+    o.flight_duration_s = args->duration_s.value_or(reference->end_time_s());
+    mavlink::OffboardPilot pilot(o, reference, loaded.terrain);
+    mavlink::UdpLink link = mavlink::UdpLink::connect(host, port);
+    std::cerr << fmt::format("fly: {} ({}) over MAVLink to {}:{} for {:.1f} s\n", uav.name,
+                             args->uav, host, port, o.flight_duration_s);
+    const std::atomic<bool> never{false};
+    const mavlink::SessionReport r =
+        mavlink::fly_pilot(pilot, link, o.tracker.control_period_s, args->start_timeout_s, never);
+    const mavlink::FlightSummary s = pilot.summary();
+    std::cout << fmt::format(
+        "fly: {}; offboard after {:.2f} s; {} steps over {:.1f} s; tracking RMSE {:.2f} m, max "
+        "{:.2f} m; {:.0f} m flown; {} stale states, {} QP fallbacks; frames sent {}, received "
+        "{} ({} rejected)\n",
+        mavlink::to_string(s.phase), s.time_to_offboard_s, s.steps, s.flown_time_s,
+        s.tracking_rmse_m, s.tracking_max_m, s.path_length_m, s.stale_steps, s.qp_fallbacks,
+        r.frames_sent, r.parser.accepted(), r.parser.rejected());
+    if (!args->out.empty()) {
+      nlohmann::json j = {{"uav", uav.name},
+                          {"phase", std::string(mavlink::to_string(s.phase))},
+                          {"finished", s.phase == mavlink::PilotPhase::kFinished},
+                          {"time_to_offboard_s", s.time_to_offboard_s},
+                          {"steps", s.steps},
+                          {"flown_time_s", s.flown_time_s},
+                          {"tracking_rmse_m", s.tracking_rmse_m},
+                          {"tracking_max_m", s.tracking_max_m},
+                          {"path_length_m", s.path_length_m},
+                          {"stale_steps", s.stale_steps},
+                          {"qp_fallbacks", s.qp_fallbacks},
+                          {"frames_sent", r.frames_sent},
+                          {"frames_received", r.parser.accepted()},
+                          {"frames_rejected", r.parser.rejected()}};
+      nlohmann::json samples = nlohmann::json::array();
+      for (const mavlink::FlightSample& f : pilot.log())
+        samples.push_back({f.t_s, f.position_m.x(), f.position_m.y(), f.position_m.z(),
+                           f.reference_m.x(), f.reference_m.y(), f.reference_m.z()});
+      j["samples"] = {{"columns", {"t", "x", "y", "z", "ref_x", "ref_y", "ref_z"}},
+                      {"rows", samples}};
+      io::write_file_atomically(args->out, j.dump() + "\n");
+    }
+    if (s.phase != mavlink::PilotPhase::kFinished) {
+      std::cerr << "error: the flight ended early: " << mavlink::to_string(s.phase) << '\n';
+      set_exit_code(5);
+    }
+  });
+}
+
+}  // namespace ridgeline::apps

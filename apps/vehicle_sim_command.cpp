@@ -1,0 +1,84 @@
+// `ridgeline vehicle-sim --udp PORT [--uav I] [--scenario FILE] [--duration S]`: a MAVLink v2
+// vehicle on 127.0.0.1:PORT (UDP), the stand-in for PX4 SITL. It starts hovering at UAV I's
+// start (position and heading of the scenario, index from 0), integrates the vehicle model
+// with RK4 at the scenario's truth rate and its model mismatch (lags truth_time_constant_scale
+// times the controller's) from the velocity + yaw-rate setpoints it receives in offboard mode,
+// and reports LOCAL_POSITION_NED and ATTITUDE at 50 Hz and HEARTBEAT at 1 Hz to whoever sent
+// to it last. No wind. Runs until --duration has passed (default: until SIGINT/SIGTERM), then
+// prints what it received.
+#include <csignal>
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "apps/command_support.hpp"
+#include "apps/commands.hpp"
+#include "core/error.hpp"
+#include "mavlink/udp_session.hpp"
+
+namespace ridgeline::apps {
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void request_stop(int) { g_stop.store(true); }
+
+}  // namespace
+
+void register_vehicle_sim_command(CLI::App& app) {
+  struct Args {
+    int port = 0;
+    int uav = 0;
+    std::string scenario;
+    double duration_s = 0.0;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "vehicle-sim", "A MAVLink vehicle on 127.0.0.1 UDP for `ridgeline fly` (stand-in for PX4 SITL)");
+  cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1)")->required();
+  cmd->add_option("--uav", args->uav, "Index of the scenario's UAV whose start it takes (from 0)")
+      ->capture_default_str();
+  cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
+  cmd->add_option("--duration", args->duration_s, "Seconds to run (0: until interrupted)")
+      ->capture_default_str();
+  cmd->callback([args] {
+    if (args->port < 1 || args->port > 65535)
+      throw InputError("--udp", fmt::format("port {} is not in 1..65535", args->port));
+    if (!(args->duration_s >= 0.0))
+      throw InputError("--duration", fmt::format("{} s is negative", args->duration_s));
+    const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
+    const sim::Scenario& sc = loaded.scenario;
+    const int n = static_cast<int>(sc.uavs.size());
+    if (args->uav < 0 || args->uav >= n)
+      throw InputError("--uav", fmt::format("{} is not a UAV of the scenario (0..{})", args->uav, n - 1));
+    const sim::UavSpec& uav = sc.uavs[static_cast<std::size_t>(args->uav)];
+
+    mavlink::SimulatedVehicleOptions o;
+    o.params = uav.vehicle;
+    o.params.tau_v_s *= sc.simulation.truth_time_constant_scale;
+    o.params.tau_omega_s *= sc.simulation.truth_time_constant_scale;
+    o.params.tau_w_s *= sc.simulation.truth_time_constant_scale;
+    o.integration_step_s = 1.0 / sc.simulation.truth_rate_hz;
+    o.initial_state = vehicle::State::Zero();
+    o.initial_state.head<3>() = uav.start_position_m;
+    o.initial_state[vehicle::kPsi] = uav.start_heading_rad;
+    mavlink::SimulatedVehicle vehicle(o);
+    mavlink::UdpLink link =
+        mavlink::UdpLink::listen("127.0.0.1", static_cast<std::uint16_t>(args->port));
+    std::signal(SIGINT, request_stop);
+    std::signal(SIGTERM, request_stop);
+    std::cerr << fmt::format("vehicle-sim: {} ({}) listening on 127.0.0.1:{}\n", uav.name,
+                             args->uav, args->port);
+    const mavlink::SessionReport r = mavlink::serve_vehicle(vehicle, link, args->duration_s, g_stop);
+    const mavlink::SimulatedVehicleStats& s = vehicle.stats();
+    std::cout << fmt::format(
+        "vehicle-sim: {:.1f} s; received {} frames ({} rejected by the parser), {} setpoints "
+        "({} refused), {} commands ({} refused), {} offboard timeouts; sent {} frames; final "
+        "position ENU ({:.1f}, {:.1f}, {:.1f}) m{}\n",
+        r.wall_time_s, r.parser.accepted(), r.parser.rejected(), s.setpoints, s.setpoints_rejected,
+        s.commands, s.commands_refused, s.offboard_timeouts, r.frames_sent,
+        vehicle.state()[vehicle::kX], vehicle.state()[vehicle::kY], vehicle.state()[vehicle::kZ],
+        s.last_error.empty() ? "" : "; last refusal: " + s.last_error);
+  });
+}
+
+}  // namespace ridgeline::apps
