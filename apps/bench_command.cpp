@@ -1,15 +1,21 @@
-// `ridgeline bench mpc [--steps N] [--ipopt-every K]`: measures the tracker's full 50 Hz step
-// and compares its QP solver with Ipopt on the same QPs, printing JSON. Figures are medians and
-// ratios from one run: absolute times vary on shared machines.
+// `ridgeline bench mpc [--steps N] [--ipopt-every K] [--dump-qps FILE]`: measures the
+// tracker's full 50 Hz step and compares its QP solver with Ipopt on the same QPs, printing
+// JSON; --dump-qps writes the QPs it built as an RLQP file.
+// `ridgeline bench qp --instances FILE [--json] [--method M] [--reference R]`: times the QP
+// solver on the instances of an RLQP file in order, hot-started as the MPC does, against the
+// unconstrained Cholesky floor and a tight reference. Figures are medians and ratios from one
+// run: absolute times vary on shared machines.
 #include <algorithm>
 #include <iostream>
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
+#include "qp/qp_instance_file.hpp"
 #include "sim/mission_problem.hpp"
 #include "sim/mpc_benchmark.hpp"
 #include "sim/plan_benchmark.hpp"
+#include "sim/qp_benchmark.hpp"
 
 namespace ridgeline::apps {
 
@@ -63,10 +69,65 @@ void register_bench_command(CLI::App& app) {
   mpc->add_option("--steps", options->steps, "closed-loop control steps")->capture_default_str();
   mpc->add_option("--ipopt-every", options->ipopt_every, "solve every n-th QP with Ipopt too")
       ->capture_default_str();
+  mpc->add_option("--dump-qps", options->dump_qps_path,
+                  "write every step's QP to this RLQP file (for bench qp --instances)");
   mpc->callback([options] {
     if (options->steps < 1) throw InputError("--steps", "must be at least 1");
     if (options->ipopt_every < 0) throw InputError("--ipopt-every", "must not be negative");
     std::cout << sim::run_mpc_benchmark(*options).to_json().dump(2) << '\n';
+  });
+
+  struct QpCommandOptions {
+    std::string instances;
+    bool json = false;
+    std::string method = "active-set";
+    std::string reference = "ipopt";
+  };
+  auto qp_options = std::make_shared<QpCommandOptions>();
+  CLI::App* qp = bench->add_subcommand(
+      "qp", "Our QP solver on an RLQP instance file, in order and hot-started, vs the LLT floor");
+  qp->add_option("--instances", qp_options->instances, "RLQP file (gen_mpc_qps.py, --dump-qps)")
+      ->required();
+  qp->add_flag("--json", qp_options->json, "print the report as JSON");
+  qp->add_option("--method", qp_options->method, "active-set | interior-point")
+      ->capture_default_str();
+  qp->add_option("--reference", qp_options->reference,
+                 "ipopt | interior-point | none: the tight solve the objective gap is measured "
+                 "against")
+      ->capture_default_str();
+  qp->callback([qp_options] {
+    sim::QpBenchmarkOptions o;
+    if (qp_options->method == "active-set") {
+      o.settings.method = qp::QpMethod::kActiveSet;
+    } else if (qp_options->method == "interior-point") {
+      o.settings.method = qp::QpMethod::kInteriorPoint;
+    } else {
+      throw InputError("--method", "'" + qp_options->method +
+                                       "' is not one of active-set, interior-point");
+    }
+    if (qp_options->reference == "ipopt") {
+      o.reference = sim::QpReference::kIpopt;
+    } else if (qp_options->reference == "interior-point") {
+      o.reference = sim::QpReference::kInteriorPoint;
+    } else if (qp_options->reference == "none") {
+      o.reference = sim::QpReference::kNone;
+    } else {
+      throw InputError("--reference", "'" + qp_options->reference +
+                                          "' is not one of ipopt, interior-point, none");
+    }
+    const std::vector<qp::QpProblem> instances = qp::read_qp_instance_file(qp_options->instances);
+    if (instances.empty()) throw InputError(qp_options->instances, "holds no instances");
+    const sim::QpBenchmarkReport report = sim::run_qp_benchmark(instances, o);
+    if (qp_options->json) {
+      std::cout << report.to_json().dump(2) << '\n';
+      return;
+    }
+    std::cout << report.count << " instances, " << report.method << ": solve median "
+              << report.solve_us.median << " us (p99 " << report.solve_us.p99 << ", max "
+              << report.solve_us.max << "), LLT floor median " << report.floor_llt_us_median
+              << " us, failures " << report.failures.size() << ", fallbacks "
+              << report.fallbacks << ", max violation " << report.max_violation
+              << ", max rel. objective gap " << report.max_rel_objective_gap << '\n';
   });
 }
 

@@ -123,8 +123,9 @@ struct UavTrackerOptions {
   double slack_quadratic_weight = 1e3;  ///< ρ₂ per m²
   /// Relative KKT tolerance 1e-7: with positions in metres and costs of 1e2–1e5 this is far
   /// below a millimetre, and it spares the interior point the last, ill-conditioned iterations
-  /// (at 1e-9 it stalled on some threat-avoidance QPs).
-  qp::QpSettings qp_settings{.tolerance = 1e-7};
+  /// (at 1e-9 it stalled on some threat-avoidance QPs). The 50 Hz step uses the hot-started
+  /// active-set method (exact vertices; the interior point is its fallback).
+  qp::QpSettings qp_settings{.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};
 };
 
 /// Throws ridgeline::InputError naming the field (e.g. `prediction_step_s`) and the reason.

@@ -136,7 +136,8 @@ class IpoptQp : public Ipopt::TNLP {
 
 }  // namespace
 
-IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance) {
+IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance,
+                                 double bound_relax_factor) {
   Ipopt::SmartPtr<IpoptQp> nlp = new IpoptQp(problem);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
   app->Options()->SetNumericValue("tol", tolerance);
@@ -147,6 +148,7 @@ IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance) {
   app->Options()->SetIntegerValue("print_level", 0);
   app->Options()->SetStringValue("sb", "yes");  // no banner
   app->Options()->SetIntegerValue("max_iter", 3000);
+  app->Options()->SetNumericValue("bound_relax_factor", bound_relax_factor);
   IpoptQpSolution out;
   if (app->Initialize() != Ipopt::Solve_Succeeded) return out;
   const auto start = std::chrono::steady_clock::now();

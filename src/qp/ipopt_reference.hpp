@@ -27,7 +27,10 @@ struct IpoptQpSolution {
   }
 };
 
-/// Solves `problem` with Ipopt (silent).
-IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance = 1e-10);
+/// Solves `problem` with Ipopt (silent). `bound_relax_factor` is Ipopt's option of that name
+/// (its default 1e-8 relaxes every bound by that much relative, which shifts the objective of a
+/// QP with active sides by ~1e-8·Σλ|b|; 0 solves the problem as given).
+IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance = 1e-10,
+                                 double bound_relax_factor = 1e-8);
 
 }  // namespace ridgeline::qp

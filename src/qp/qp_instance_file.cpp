@@ -153,4 +153,83 @@ std::vector<QpProblem> read_qp_instance_file(const std::string& path) {
   return parse_qp_instances(bytes, path);
 }
 
+namespace {
+
+void put_int32(std::ofstream& out, std::int32_t v) {
+  std::uint32_t u;
+  std::memcpy(&u, &v, sizeof u);
+  char b[4];
+  for (int i = 0; i < 4; ++i) b[i] = static_cast<char>((u >> (8 * i)) & 0xffu);
+  out.write(b, 4);
+}
+
+void put_double(std::ofstream& out, double v) {
+  if (v >= kFileInfinity) v = kFileInfinity;
+  if (v <= -kFileInfinity) v = -kFileInfinity;
+  std::uint64_t u;
+  std::memcpy(&u, &v, sizeof u);
+  char b[8];
+  for (int i = 0; i < 8; ++i) b[i] = static_cast<char>((u >> (8 * i)) & 0xffu);
+  out.write(b, 8);
+}
+
+// Row-major, as the format stores matrices.
+void put_matrix(std::ofstream& out, const Eigen::MatrixXd& a) {
+  for (Eigen::Index i = 0; i < a.rows(); ++i) {
+    for (Eigen::Index j = 0; j < a.cols(); ++j) put_double(out, a(i, j));
+  }
+}
+
+void put_vector(std::ofstream& out, const Eigen::VectorXd& v, Eigen::Index size, double absent) {
+  for (Eigen::Index i = 0; i < size; ++i) put_double(out, v.size() != 0 ? v[i] : absent);
+}
+
+}  // namespace
+
+QpInstanceWriter::QpInstanceWriter(const std::string& path)
+    : file_(path, std::ios::binary | std::ios::trunc), path_(path) {
+  if (!file_) throw InputError(path, "cannot create QP instance file");
+  file_.write("RLQP", 4);
+  put_int32(file_, 0);
+}
+
+QpInstanceWriter::~QpInstanceWriter() {
+  if (closed_) return;
+  try {
+    close();
+  } catch (const InputError&) {
+    // A destructor must not throw; a caller that cares calls close().
+  }
+}
+
+void QpInstanceWriter::write(const QpProblem& q) {
+  if (closed_) throw InputError(path_, "write after close");
+  if (q.A.rows() != 0) {
+    throw InputError(path_, "instance " + std::to_string(count_) + " has " +
+                                std::to_string(q.A.rows()) +
+                                " equality rows, which the RLQP format cannot hold");
+  }
+  const Eigen::Index n = q.H.rows(), m = q.G.rows();
+  put_int32(file_, static_cast<std::int32_t>(n));
+  put_int32(file_, static_cast<std::int32_t>(m));
+  put_matrix(file_, q.H);
+  put_vector(file_, q.f, n, 0.0);
+  put_matrix(file_, q.G);
+  put_vector(file_, q.lg, m, -kFileInfinity);
+  put_vector(file_, q.ug, m, kFileInfinity);
+  put_vector(file_, q.lb, n, -kFileInfinity);
+  put_vector(file_, q.ub, n, kFileInfinity);
+  if (!file_) throw InputError(path_, "write failed at instance " + std::to_string(count_));
+  ++count_;
+}
+
+void QpInstanceWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  file_.seekp(4);
+  put_int32(file_, count_);
+  file_.close();
+  if (!file_) throw InputError(path_, "write failed while closing");
+}
+
 }  // namespace ridgeline::qp

@@ -52,6 +52,8 @@
 
 #include <Eigen/Cholesky>
 
+#include "qp/dual_active_set.hpp"
+
 namespace ridgeline::qp {
 
 namespace {
@@ -69,6 +71,13 @@ constexpr double kWarmStartShift = 1e-6;
 
 bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
 
+// All entries finite: x·0 is 0 for a finite x and NaN otherwise, and the sum vectorizes
+// (Eigen's allFinite() compares x − x with itself, several times slower on the MPC's G).
+template <typename Derived>
+bool all_finite(const Eigen::DenseBase<Derived>& x) {
+  return x.size() == 0 || (x.derived().array() * 0.0).sum() == 0.0;
+}
+
 }  // namespace
 
 std::string_view to_string(QpStatus status) {
@@ -85,6 +94,16 @@ std::string_view to_string(QpStatus status) {
       return "numerical error";
     case QpStatus::kInvalidInput:
       return "invalid input";
+  }
+  return "unknown";
+}
+
+std::string_view to_string(QpMethod method) {
+  switch (method) {
+    case QpMethod::kInteriorPoint:
+      return "interior point";
+    case QpMethod::kActiveSet:
+      return "active set";
   }
   return "unknown";
 }
@@ -118,8 +137,8 @@ bool valid_input(const QpProblem& q) {
   const Eigen::Index p = q.A.rows();
   if (p > 0 && q.A.cols() != n) return false;
   if (q.b.size() != p) return false;
-  if (!q.H.allFinite() || !q.f.allFinite() || !q.G.allFinite() || !q.A.allFinite() ||
-      !q.b.allFinite()) {
+  if (!all_finite(q.H) || !all_finite(q.f) || !all_finite(q.G) || !all_finite(q.A) ||
+      !all_finite(q.b)) {
     return false;
   }
   // Symmetric to a relative 1e-10 (round-off of an assembled H); the solver reads one triangle.
@@ -203,6 +222,9 @@ struct QpSolver::Workspace {
   Eigen::LLT<Mat> p_llt;
   Vec p_d, p_y, p_ry, p_res_y, p_cy, p_z, p_rz, p_res_z, p_cz, p_hz, p_gz, p_ez, p_grad;
 
+  // QpMethod::kActiveSet's solver and working set.
+  DualActiveSet active_set;
+
   bool setup(const QpProblem& problem);
   void cold_start();
   void warm_start();
@@ -229,7 +251,10 @@ void QpSolver::WorkspaceDeleter::operator()(Workspace* w) const { delete w; }
 
 QpSolver::QpSolver(QpSettings settings) : settings_(settings), workspace_(new Workspace) {}
 
-void QpSolver::reset() { workspace_->have_previous = false; }
+void QpSolver::reset() {
+  workspace_->have_previous = false;
+  workspace_->active_set.forget();
+}
 
 bool QpSolver::Workspace::setup(const QpProblem& problem) {
   q = &problem;
@@ -1051,12 +1076,22 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
   const auto start = std::chrono::steady_clock::now();
   QpResult& r = result_;
   r.iterations = 0;
+  r.active_set_iterations = 0;
   r.polished = false;
+  r.fell_back = false;
+  r.method = settings_.method;
+  const bool active_set = settings_.method == QpMethod::kActiveSet;
   if (!valid_input(problem)) {
     r.status = QpStatus::kInvalidInput;
     r.objective = r.primal_residual = r.dual_residual = r.duality_gap = 0.0;
+  } else if (active_set && solve_active_set(problem)) {
+    // Answered by the active-set method.
   } else {
     Workspace& w = *workspace_;
+    if (active_set) {
+      r.fell_back = true;
+      r.method = QpMethod::kInteriorPoint;
+    }
     w.setup(problem);
     QpStatus status = QpStatus::kNumericalError;
     int iterations = 0;
@@ -1066,7 +1101,7 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
       status = w.iterate(settings_, std::min(settings_.max_iterations,
                                              settings_.warm_start_max_iterations),
                          iterations);
-      r.iterations = iterations;
+      r.iterations += iterations;
       done = status == QpStatus::kSolved || status == QpStatus::kPrimalInfeasible ||
              status == QpStatus::kDualInfeasible;
     }
@@ -1086,11 +1121,51 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
       w.p_lg = w.l_lg;
       w.p_ug = w.l_ug;
       w.have_previous = true;
+      // The next active-set solve starts from the sides with nonzero multipliers (exact zeros
+      // off the active set when polished, ~μ/s otherwise).
+      if (active_set) {
+        const double scale = std::max({1.0, inf_norm(r.dual_bounds), inf_norm(r.dual_rows)});
+        w.active_set.set_working_set(r, 1e-6 * scale);
+      }
     }
   }
   r.solve_time_us =
       std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
   return r;
+}
+
+// QpMethod::kActiveSet: returns true when the dual active-set method answered (solved, or
+// infeasible with a checked certificate); false leaves the problem to the interior point.
+bool QpSolver::solve_active_set(const QpProblem& problem) {
+  Workspace& w = *workspace_;
+  QpResult& r = result_;
+  const int n = problem.num_variables();
+  const int m = static_cast<int>(problem.G.rows()), p = static_cast<int>(problem.A.rows());
+  w.active_set.resize(n, m, p);
+  // Size the fallback's workspace now, so that a first fallback in the 50 Hz loop does not
+  // allocate.
+  if (w.n != n || w.m != m || w.p != p) w.setup(problem);
+  const int cap = settings_.active_set_max_iterations > 0 ? settings_.active_set_max_iterations
+                                                          : 2 * (n + 10);
+  // Sides are met to a tenth of the relative tolerance (the interior point's primal residual
+  // is scaled by max(1, ‖z‖, ‖Gz‖), which the active set's exact vertices do not need).
+  const ActiveSetOutcome outcome =
+      w.active_set.solve(problem, settings_.warm_start, cap, 0.1 * settings_.tolerance);
+  r.active_set_iterations = w.active_set.iterations();
+  r.iterations = r.active_set_iterations;
+  if (outcome != ActiveSetOutcome::kSolved && outcome != ActiveSetOutcome::kInfeasible) {
+    return false;
+  }
+  r.status = outcome == ActiveSetOutcome::kSolved ? QpStatus::kSolved : QpStatus::kPrimalInfeasible;
+  r.z = w.active_set.z();
+  w.active_set.multipliers(r.dual_bounds, r.dual_rows, r.dual_eq);
+  r.objective = w.active_set.objective();
+  r.primal_residual = w.active_set.primal_residual();
+  r.dual_residual = w.active_set.dual_residual();
+  r.duality_gap = 0.0;  // complementary by construction: inactive sides have zero multipliers
+  // A later fallback starts the interior point cold rather than from an older solution.
+  w.have_previous = false;
+  return true;
 }
 
 }  // namespace ridgeline::qp

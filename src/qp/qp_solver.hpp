@@ -47,6 +47,18 @@ enum class QpStatus {
 };
 std::string_view to_string(QpStatus status);
 
+/// The algorithm QpSolver runs.
+enum class QpMethod {
+  /// Primal–dual interior point (Mehrotra), with polishing: any convex QP.
+  kInteriorPoint,
+  /// Goldfarb–Idnani dual active set (dual_active_set.hpp), hot-started from the previous
+  /// solve's working set, with O(n²) factor updates per added or dropped side; the interior
+  /// point is the fallback when H is not strictly convex, the iteration cap is reached or a
+  /// check of the result fails. For MPC: exact active-set solutions in a few updates.
+  kActiveSet,
+};
+std::string_view to_string(QpMethod method);
+
 /// Solver options with documented defaults.
 struct QpSettings {
   int max_iterations = 100;
@@ -65,6 +77,10 @@ struct QpSettings {
   /// released, violated sides forced) and solved again, a few times at most. z then is exact
   /// up to round-off instead of ~√μ-accurate on degenerate problems (as OSQP's polishing).
   bool polish = true;
+  QpMethod method = QpMethod::kInteriorPoint;
+  /// kActiveSet: sides added or dropped before falling back to the interior point (a bounded
+  /// worst case); 0 means 2·(n + 10).
+  int active_set_max_iterations = 0;
 };
 
 /// Outcome of one solve. `z` is meaningful for kSolved (and is the last iterate otherwise).
@@ -81,6 +97,9 @@ struct QpResult {
   double duality_gap = 0.0;
   double solve_time_us = 0.0;
   bool polished = false;         ///< the polished active-set point replaced the interior point
+  QpMethod method = QpMethod::kInteriorPoint;  ///< the method whose answer this is
+  bool fell_back = false;        ///< kActiveSet was asked for and the interior point answered
+  int active_set_iterations = 0; ///< of kActiveSet (included in `iterations`)
 };
 
 class QpSolver {
@@ -96,6 +115,8 @@ class QpSolver {
   const QpResult& last_result() const { return result_; }
 
  private:
+  bool solve_active_set(const QpProblem& problem);
+
   QpSettings settings_;
   QpResult result_;
   // The solver's workspace lives in the implementation file.

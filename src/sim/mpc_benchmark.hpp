@@ -9,6 +9,8 @@
 // solved by Ipopt, outside the timed region, for the speed ratio and an accuracy check.
 #pragma once
 
+#include <string>
+
 #include <nlohmann/json.hpp>
 
 #include "sim/statistics.hpp"
@@ -18,6 +20,9 @@ namespace ridgeline::sim {
 struct MpcBenchmarkOptions {
   int steps = 3000;       ///< control steps (60 s at 50 Hz)
   int ipopt_every = 10;   ///< compare with Ipopt on every n-th QP (0: never)
+  /// When set, every step's QP is appended to this RLQP file (outside the timed region), for
+  /// `ridgeline bench qp --instances`.
+  std::string dump_qps_path;
 };
 
 struct MpcBenchmarkReport {
@@ -26,6 +31,9 @@ struct MpcBenchmarkReport {
   Percentiles step_cpu_us;      ///< the same in thread CPU time (robust to preemption)
   Percentiles qp_us;            ///< our QP solve inside the step
   Percentiles qp_iterations;
+  std::string qp_method;        ///< the tracker's QpSettings::method
+  int qp_fallbacks = 0;         ///< active-set solves the interior point had to answer
+  int qps_dumped = 0;           ///< QPs written to dump_qps_path
   int not_solved = 0;           ///< steps whose QP did not reach kSolved
   double max_slack_m = 0.0;     ///< largest soft-constraint violation the plans accepted
   double soft_rows_mean = 0.0;

@@ -242,13 +242,20 @@ double inf_norm(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCo
 // PSD H; duplicated rows, degenerate (active, zero multiplier) rows and bounds, equality rows,
 // fixed variables. `tolerance` is the solver's relative KKT tolerance and `z_tolerance`
 // the allowed relative distance of z from z* and from Ipopt's z on strictly convex instances.
-// Also counts the instances where polishing replaced the interior point.
-void check_random_feasible(double tolerance, double z_tolerance, bool check_z) {
+// Also counts the instances where polishing replaced the interior point. With
+// QpMethod::kActiveSet the instances are solved in one sequence with hot starts (each from the
+// previous, unrelated instance's working set: the worst case for a hot start), the active-set
+// point must be as exact as a polished one, and the count of instances it answered (the rest
+// fell back: PSD H, dependent equalities) is returned.
+int check_random_feasible(double tolerance, double z_tolerance, bool check_z,
+                          QpMethod method = QpMethod::kInteriorPoint) {
   Generator gen(20261122);
   QpSettings settings;
   settings.tolerance = tolerance;
-  settings.warm_start = false;
+  settings.method = method;
+  settings.warm_start = method == QpMethod::kActiveSet;
   QpSolver solver(settings);
+  int answered_by_active_set = 0;
   int compared_with_ipopt = 0;
   int polished = 0;
   int strictly_convex = 0;
@@ -267,6 +274,8 @@ void check_random_feasible(double tolerance, double z_tolerance, bool check_z) {
     const QpResult& r = solver.solve(g.problem);
     EXPECT_EQ(r.status, QpStatus::kSolved) << to_string(r.status);
     polished += r.polished ? 1 : 0;
+    answered_by_active_set += r.method == QpMethod::kActiveSet ? 1 : 0;
+    EXPECT_EQ(r.fell_back, method == QpMethod::kActiveSet && r.method != QpMethod::kActiveSet);
     if (r.status != QpStatus::kSolved) continue;
     const IpoptQpSolution ref = solve_with_ipopt(g.problem);
     const double obj_scale = std::max(1.0, std::abs(g.objective_star));
@@ -291,8 +300,10 @@ void check_random_feasible(double tolerance, double z_tolerance, bool check_z) {
       // 2e-12). It is accepted on every strictly convex instance; without it a degenerate
       // side would leave z only ~√μ accurate (up to 2e-4 here), so z_tolerance applies to all.
       strictly_convex += 1;
-      polished_strictly_convex += r.polished ? 1 : 0;
-      EXPECT_TRUE(r.polished);
+      // An active-set answer is a vertex solution like a polished one.
+      const bool exact = r.polished || r.method == QpMethod::kActiveSet;
+      polished_strictly_convex += exact ? 1 : 0;
+      EXPECT_TRUE(exact);
       const double z_tol = z_tolerance * z_scale;
       max_rel_z_error = std::max(max_rel_z_error, inf_norm(r.z - g.z_star) / z_scale);
       EXPECT_LE(inf_norm(r.z - g.z_star), z_tol);
@@ -313,6 +324,8 @@ void check_random_feasible(double tolerance, double z_tolerance, bool check_z) {
   ::testing::Test::RecordProperty("polished_strictly_convex", polished_strictly_convex);
   ::testing::Test::RecordProperty("max_rel_z_error",
                                   (::testing::Message() << max_rel_z_error).GetString());
+  ::testing::Test::RecordProperty("answered_by_active_set", answered_by_active_set);
+  return answered_by_active_set;
 }
 
 // At the default tolerance 1e-9 (polishing on by default) the objectives match to 1e-6
@@ -323,17 +336,106 @@ TEST(QpSolverIpoptTest, RandomFeasibleQpsAgreeWithIpoptAndTheKnownOptimum) {
   check_random_feasible(1e-9, 1e-6, true);
 }
 
+// The same 220 instances through the active-set method, hot-started across them. The 165
+// strictly convex ones have a positive definite H, and the active set must answer every one
+// itself (duplicated and equality rows included); the 55 PSD ones fail its Cholesky test and
+// the interior point answers them.
+TEST(QpSolverIpoptTest, ActiveSetAgreesWithIpoptAndTheKnownOptimum) {
+  const int answered = check_random_feasible(1e-9, 1e-6, true, QpMethod::kActiveSet);
+  EXPECT_EQ(answered, 165);
+}
+
 // The Farkas block makes every instance infeasible; the solver must say so (never kSolved).
+// The active set finds the certificate itself (checked on the data) within its iteration cap,
+// so it never needs the interior point's longer divergence test.
 TEST(QpSolverIpoptTest, RandomInfeasibleQpsAreReportedPrimalInfeasible) {
-  Generator gen(7);
-  QpSolver solver;
-  for (int instance = 0; instance < 30; ++instance) {
-    const int n = gen.integer(2, 40);
-    const QpProblem q = gen.infeasible(n, gen.integer(0, 2 * n));
-    SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n);
-    EXPECT_EQ(solver.solve(q).status, QpStatus::kPrimalInfeasible)
-        << to_string(solver.last_result().status);
+  for (QpMethod method : {QpMethod::kInteriorPoint, QpMethod::kActiveSet}) {
+    Generator gen(7);
+    QpSolver solver({.method = method});
+    for (int instance = 0; instance < 30; ++instance) {
+      const int n = gen.integer(2, 40);
+      const QpProblem q = gen.infeasible(n, gen.integer(0, 2 * n));
+      SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n << " method "
+                                        << to_string(method));
+      const QpResult& r = solver.solve(q);
+      EXPECT_EQ(r.status, QpStatus::kPrimalInfeasible) << to_string(r.status);
+      if (method == QpMethod::kActiveSet) {
+        EXPECT_FALSE(r.fell_back);
+        EXPECT_LE(r.active_set_iterations, 2 * (n + 10));  // the default cap: bounded work
+      }
+    }
   }
+}
+
+// Degenerate instances for the active set: every row duplicated (some scaled by 2 or 0.5 with
+// scaled sides: parallel rows), many sides active with zero multipliers, against the known
+// optimum and Ipopt. Dependent active rows must neither break the factor updates nor make the
+// method cycle (it would hit its cap and fall back: fell_back is expected false).
+TEST(QpSolverIpoptTest, ActiveSetHandlesDuplicateParallelAndWeaklyActiveRows) {
+  Generator gen(99);
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  int answered = 0;
+  for (int instance = 0; instance < 40; ++instance) {
+    const int n = gen.integer(3, 30);
+    Generated g = gen.feasible(n, gen.integer(n, 3 * n), 0, 1e3, false);
+    QpProblem& q = g.problem;
+    const Eigen::Index m = q.G.rows();
+    Eigen::MatrixXd G(2 * m, n);
+    Eigen::VectorXd lg(2 * m), ug(2 * m);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const double scale = j % 3 == 0 ? 1.0 : (j % 3 == 1 ? 2.0 : 0.5);
+      G.row(j) = q.G.row(j);
+      G.row(m + j) = scale * q.G.row(j);
+      lg[j] = q.lg[j];
+      ug[j] = q.ug[j];
+      lg[m + j] = scale * q.lg[j];  // ±∞ stays ±∞
+      ug[m + j] = scale * q.ug[j];
+    }
+    q.G = G;
+    q.lg = lg;
+    q.ug = ug;
+    SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n);
+    const QpResult& r = solver.solve(q);
+    ASSERT_EQ(r.status, QpStatus::kSolved) << to_string(r.status);
+    answered += r.method == QpMethod::kActiveSet ? 1 : 0;
+    const double obj_scale = std::max(1.0, std::abs(g.objective_star));
+    EXPECT_NEAR(r.objective, g.objective_star, 1e-8 * obj_scale);
+    // cond(H) = 1e3: z is exact to ~1e-13; 1e-7 allows for the equality rows' round-off.
+    EXPECT_LE(inf_norm(r.z - g.z_star), 1e-7 * std::max(1.0, inf_norm(g.z_star)));
+    const IpoptQpSolution ref = solve_with_ipopt(q, 1e-10, 0.0);
+    if (ref.status == Ipopt::Solve_Succeeded) {
+      EXPECT_NEAR(r.objective, ref.objective, 1e-6 * obj_scale);
+    }
+  }
+  EXPECT_EQ(answered, 40);
+}
+
+// cond(H) = 1e10: the active set's J = L⁻ᵀ has entries up to 1e5 times the smallest, and the
+// answer must still match the known optimum (objective to 1e-8 relative; z to 1e-4, the
+// accuracy 1e-16·cond allows along H's weakest direction, with a margin) and Ipopt.
+TEST(QpSolverIpoptTest, ActiveSetOnIllConditionedHessians) {
+  Generator gen(1010);
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  int answered = 0;
+  for (int instance = 0; instance < 30; ++instance) {
+    const int n = gen.integer(5, 40);
+    const Generated g = gen.feasible(n, gen.integer(0, 3 * n), gen.integer(0, n / 4), 1e10, false);
+    SCOPED_TRACE(::testing::Message() << "instance " << instance << " n " << n);
+    const QpResult& r = solver.solve(g.problem);
+    ASSERT_EQ(r.status, QpStatus::kSolved) << to_string(r.status);
+    answered += r.method == QpMethod::kActiveSet ? 1 : 0;
+    const double obj_scale = std::max(1.0, std::abs(g.objective_star));
+    EXPECT_NEAR(r.objective, g.objective_star, 1e-8 * obj_scale);
+    EXPECT_LE(inf_norm(r.z - g.z_star), 1e-4 * std::max(1.0, inf_norm(g.z_star)));
+    EXPECT_LE(r.primal_residual, 1e-8 * std::max(1.0, inf_norm(g.z_star)));
+    const IpoptQpSolution ref = solve_with_ipopt(g.problem, 1e-10, 0.0);
+    if (ref.status == Ipopt::Solve_Succeeded) {
+      EXPECT_NEAR(r.objective, ref.objective, 1e-6 * obj_scale);
+    }
+  }
+  // The squared ratio of L's diagonal stays below the 1e14 limit at cond 1e10, so the active
+  // set answers all of them itself.
+  EXPECT_EQ(answered, 30);
 }
 
 TEST(QpSolverIpoptTest, RandomUnboundedQpsAreReportedDualInfeasible) {

@@ -1,0 +1,559 @@
+// Goldfarb–Idnani dual active-set method; the mathematics is in dual_active_set.hpp.
+#include "qp/dual_active_set.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Householder>
+
+namespace ridgeline::qp {
+
+namespace {
+
+// Sides at or beyond this magnitude are absent (as in the interior point).
+constexpr double kInfiniteBound = 1e20;
+// A constraint is dependent on the working set when the part of Jᵀn outside the working set's
+// span is below this fraction of the whole (an angle of ~1e-10 rad to the span).
+constexpr double kDependence = 1e-10;
+// H is taken as not strictly convex when the squared ratio of the Cholesky factor's extreme
+// diagonal entries, a lower bound on cond(H), exceeds this: J = L⁻ᵀ would lose all accuracy.
+constexpr double kMaxConditionEstimate = 1e14;
+
+bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
+
+bool equal_sides(double lo, double hi) {
+  return finite_side(lo) && finite_side(hi) &&
+         hi - lo <= 1e-12 * std::max(1.0, std::max(std::abs(lo), std::abs(hi)));
+}
+
+// Plane rotation taking (a, b) to (h, 0); applied to the pairs (x, y) as (c x + s y, −s x + c y).
+struct Rotation {
+  double c = 1.0, s = 0.0;
+  static Rotation zeroing(double& a, double& b) {
+    const double h = std::sqrt(a * a + b * b);  // entries of J and R are far from overflow
+    Rotation g{a / h, b / h};
+    a = h;
+    b = 0.0;
+    return g;
+  }
+  void apply(double& x, double& y) const {
+    const double t = c * x + s * y;
+    y = -s * x + c * y;
+    x = t;
+  }
+};
+
+void rotate_columns(Eigen::MatrixXd& J, int a, int b, const Rotation& g) {
+  double* ca = J.col(a).data();
+  double* cb = J.col(b).data();
+  for (Eigen::Index i = 0; i < J.rows(); ++i) g.apply(ca[i], cb[i]);
+}
+
+}  // namespace
+
+void DualActiveSet::resize(int n, int m, int p) {
+  if (n != n_ || p != p_) {
+    n_ = n;
+    p_ = p;
+    llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+    J_.setZero(n, n);
+    R_.setZero(n, n);
+    Y_.setZero(n, n);
+    S_.setZero(n, n);
+    for (Eigen::VectorXd* v : {&x_, &u_, &d_, &step_, &r_, &jtf_, &v_, &hx_, &res_, &dual_bounds_}) {
+      v->setZero(n);
+    }
+    dual_eq_.setZero(p);
+    active_.assign(n, Side{});
+    saved_.assign(n, Side{});
+    count_ = saved_count_ = 0;
+  }
+  if (m > m_capacity_) {
+    m_capacity_ = m;
+    gx_.setZero(m);
+  }
+  m_ = m;
+}
+
+bool DualActiveSet::is_equality(Side c) const {
+  switch (c.kind) {
+    case kLower:
+      return q_->lb.size() != 0 && q_->ub.size() != 0 &&
+             equal_sides(q_->lb[c.index], q_->ub[c.index]);
+    case kRowLower:
+      return equal_sides(q_->lg[c.index], q_->ug[c.index]);
+    case kEqualityRow:
+      return true;
+    default:
+      return false;
+  }
+}
+
+double DualActiveSet::normal_dot(Side c, const Eigen::VectorXd& v) const {
+  switch (c.kind) {
+    case kLower:
+      return v[c.index];
+    case kUpper:
+      return -v[c.index];
+    case kRowLower:
+      return q_->G.row(c.index).dot(v);
+    case kRowUpper:
+      return -q_->G.row(c.index).dot(v);
+    default:
+      return q_->A.row(c.index).dot(v);
+  }
+}
+
+double DualActiveSet::value(Side c) const {
+  switch (c.kind) {
+    case kLower:
+      return q_->lb[c.index];
+    case kUpper:
+      return -q_->ub[c.index];
+    case kRowLower:
+      return q_->lg[c.index];
+    case kRowUpper:
+      return -q_->ug[c.index];
+    default:
+      return q_->b[c.index];
+  }
+}
+
+double DualActiveSet::norm(Side c) const {
+  if (c.kind == kLower || c.kind == kUpper) return 1.0;
+  if (c.kind == kEqualityRow) return q_->A.row(c.index).norm();
+  return q_->G.row(c.index).norm();
+}
+
+void DualActiveSet::add_normal(Side c, double a, Eigen::Ref<Eigen::VectorXd> out) const {
+  switch (c.kind) {
+    case kLower:
+      out[c.index] += a;
+      break;
+    case kUpper:
+      out[c.index] -= a;
+      break;
+    case kRowLower:
+      out.noalias() += a * q_->G.row(c.index).transpose();
+      break;
+    case kRowUpper:
+      out.noalias() -= a * q_->G.row(c.index).transpose();
+      break;
+    default:
+      out.noalias() += a * q_->A.row(c.index).transpose();
+  }
+}
+
+void DualActiveSet::jt_normal(Side c) {
+  switch (c.kind) {
+    case kLower:
+      d_ = J_.row(c.index).transpose();
+      break;
+    case kUpper:
+      d_ = -J_.row(c.index).transpose();
+      break;
+    case kRowLower:
+      d_.noalias() = J_.transpose() * q_->G.row(c.index).transpose();
+      break;
+    case kRowUpper:  // −(Jᵀg) as two steps: a negated product would need a temporary
+      d_.noalias() = J_.transpose() * q_->G.row(c.index).transpose();
+      d_ = -d_;
+      break;
+    default:
+      d_.noalias() = J_.transpose() * q_->A.row(c.index).transpose();
+  }
+}
+
+// Reflects d₂ = d[q..n) onto its first entry (one Householder reflection P, J₂ ← J₂P, so that
+// (JP)ᵀn = Pd stays consistent); R gains the column d[0..q]. A reflection costs 4n(n−q) flops
+// in two vectorized passes against 6n(n−q) for n−q−1 plane rotations.
+bool DualActiveSet::add(Side c) {
+  if (count_ >= n_) return false;
+  jt_normal(c);
+  const int q = count_;
+  const double d2_norm = d_.tail(n_ - q).norm();
+  if (!(d2_norm > kDependence * d_.norm())) return false;
+  if (q + 1 < n_) {
+    double tau = 0.0, beta = 0.0;
+    auto essential = d_.segment(q + 1, n_ - q - 1);
+    d_.tail(n_ - q).makeHouseholderInPlace(tau, beta);
+    J_.rightCols(n_ - q).applyHouseholderOnTheRight(essential, tau, step_.data());
+    d_[q] = beta;
+  }
+  R_.col(q).head(q + 1) = d_.head(q + 1);
+  active_[q] = c;
+  ++count_;
+  return true;
+}
+
+// Removes column k of R; the Hessenberg part left behind is re-triangularized by rotations of
+// rows (j, j+1) of R, and the same rotations of columns (j, j+1) of J keep L⁻¹N = Q₁R.
+void DualActiveSet::drop(int k) {
+  const int q = count_;
+  for (int j = k; j < q - 1; ++j) {
+    R_.col(j).head(j + 2) = R_.col(j + 1).head(j + 2);
+    active_[j] = active_[j + 1];
+    u_[j] = u_[j + 1];
+  }
+  for (int j = k; j < q - 1; ++j) {
+    const Rotation g = Rotation::zeroing(R_(j, j), R_(j + 1, j));
+    for (int l = j + 1; l < q - 1; ++l) g.apply(R_(j, l), R_(j + 1, l));
+    rotate_columns(J_, j, j + 1, g);
+  }
+  R_.col(q - 1).setZero();
+  --count_;
+}
+
+void DualActiveSet::solve_working_set() {
+  const int q = count_;
+  jtf_.noalias() = J_.transpose() * q_->f;
+  for (int j = 0; j < q; ++j) v_[j] = value(active_[j]);
+  auto Rq = R_.topLeftCorner(q, q).triangularView<Eigen::Upper>();
+  if (q > 0) Rq.transpose().solveInPlace(v_.head(q));
+  x_.noalias() = J_.rightCols(n_ - q) * jtf_.tail(n_ - q);
+  x_ = -x_;
+  if (q > 0) {
+    x_.noalias() += J_.leftCols(q) * v_.head(q);
+    u_.head(q) = v_.head(q) + jtf_.head(q);
+    Rq.solveInPlace(u_.head(q));
+  }
+}
+
+// The inequality side with the largest violation per unit normal beyond the tolerance.
+bool DualActiveSet::most_violated(Side& c, double& violation) {
+  const QpProblem& q = *q_;
+  double worst = 0.0;
+  bool found = false;
+  if (q.lb.size() != 0) {
+    for (int i = 0; i < n_; ++i) {
+      const double lo = q.lb[i], hi = q.ub.size() != 0 ? q.ub[i] : kInfinity;
+      if (equal_sides(lo, hi)) continue;
+      if (finite_side(lo) && lo - x_[i] > tolerance_ * std::max(1.0, std::abs(lo)) &&
+          lo - x_[i] > worst) {
+        worst = lo - x_[i];
+        c = Side{kLower, i};
+        found = true;
+      }
+    }
+  }
+  if (q.ub.size() != 0) {
+    for (int i = 0; i < n_; ++i) {
+      const double hi = q.ub[i], lo = q.lb.size() != 0 ? q.lb[i] : -kInfinity;
+      if (equal_sides(lo, hi)) continue;
+      if (finite_side(hi) && x_[i] - hi > tolerance_ * std::max(1.0, std::abs(hi)) &&
+          x_[i] - hi > worst) {
+        worst = x_[i] - hi;
+        c = Side{kUpper, i};
+        found = true;
+      }
+    }
+  }
+  if (m_ > 0) {
+    gx_.head(m_).noalias() = q.G * x_;
+    for (int j = 0; j < m_; ++j) {
+      const double lo = q.lg[j], hi = q.ug[j];
+      if (equal_sides(lo, hi)) continue;
+      // The tolerance is tolerance·max(1, ‖g‖, |side|); ‖g‖ is computed only for the rows
+      // that fail the cheaper test without it.
+      const double below = lo - gx_[j], above = gx_[j] - hi;
+      if (finite_side(lo) && below > tolerance_ * std::max(1.0, std::abs(lo))) {
+        const double g_norm = q.G.row(j).norm();
+        if (below > tolerance_ * std::max(g_norm, std::abs(lo)) && below > worst * g_norm) {
+          worst = below / g_norm;
+          c = Side{kRowLower, j};
+          found = true;
+        }
+      }
+      if (finite_side(hi) && above > tolerance_ * std::max(1.0, std::abs(hi))) {
+        const double g_norm = q.G.row(j).norm();
+        if (above > tolerance_ * std::max(g_norm, std::abs(hi)) && above > worst * g_norm) {
+          worst = above / g_norm;
+          c = Side{kRowUpper, j};
+          found = true;
+        }
+      }
+    }
+  }
+  violation = worst;
+  return found;
+}
+
+bool DualActiveSet::usable(Side c) const {
+  const QpProblem& q = *q_;
+  switch (c.kind) {
+    case kLower:
+      return q.lb.size() != 0 && finite_side(q.lb[c.index]) && !is_equality(c);
+    case kUpper:
+      return q.ub.size() != 0 && finite_side(q.ub[c.index]) &&
+             !is_equality(Side{kLower, c.index});
+    case kRowLower:
+      return c.index < m_ && finite_side(q.lg[c.index]) && !is_equality(c);
+    case kRowUpper:
+      return c.index < m_ && finite_side(q.ug[c.index]) && !is_equality(Side{kRowLower, c.index});
+    default:
+      return false;
+  }
+}
+
+// The fast path. When the previous working set is still optimal (the common case in MPC: the
+// median solve on the gen_mpc_qps.py sequence), the equality-constrained minimizer on it is
+// feasible and its multipliers are nonnegative, and nothing else is needed. It is computed by
+// the range-space (Schur complement) method: with H = LLᵀ, Y = L⁻¹N, g = L⁻¹f,
+//   (YᵀY) u = b + Yᵀg,   z = L⁻ᵀ(Yu − g),
+// for n²q + nq²/2 flops against the n³/3 of J = L⁻ᵀ and the q reflections (1) needs. When a
+// check fails (a side violated, a multiplier negative, the sides nearly dependent) the solve
+// goes on by the dual method from the same working set.
+bool DualActiveSet::try_working_set(bool hot_start) {
+  const QpProblem& q = *q_;
+  count_ = 0;
+  for (int k = 0; k < p_; ++k) active_[count_++] = Side{kEqualityRow, k};
+  for (int j = 0; j < m_ && count_ < n_; ++j) {
+    if (is_equality(Side{kRowLower, j})) active_[count_++] = Side{kRowLower, j};
+  }
+  for (int i = 0; i < n_ && q.lb.size() != 0 && count_ < n_; ++i) {
+    if (is_equality(Side{kLower, i})) active_[count_++] = Side{kLower, i};
+  }
+  if (count_ > n_) return false;
+  const int equalities = count_;
+  for (int k = 0; hot_start && k < saved_count_ && count_ < n_; ++k) {
+    if (usable(saved_[k])) active_[count_++] = saved_[k];
+  }
+  const int k = count_;
+  jtf_ = q.f;  // g = L⁻¹f
+  llt_.matrixL().solveInPlace(jtf_);
+  x_ = -jtf_;
+  if (k > 0) {
+    auto Y = Y_.leftCols(k);
+    for (int j = 0; j < k; ++j) {
+      Y.col(j).setZero();
+      add_normal(active_[j], 1.0, Y.col(j));
+    }
+    llt_.matrixL().solveInPlace(Y);
+    Eigen::Ref<Eigen::MatrixXd> S(S_.topLeftCorner(k, k));
+    S.setZero();
+    S.selfadjointView<Eigen::Lower>().rankUpdate(Y.transpose());
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> chol(S);
+    if (chol.info() != Eigen::Success) return false;
+    const auto diag = chol.matrixLLT().diagonal().cwiseAbs();
+    const double ratio = diag.maxCoeff() / diag.minCoeff();
+    if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
+    for (int j = 0; j < k; ++j) u_[j] = value(active_[j]);
+    u_.head(k).noalias() += Y.transpose() * jtf_;
+    chol.solveInPlace(u_.head(k));
+    const double u_scale = std::max(1.0, u_.head(k).cwiseAbs().maxCoeff());
+    for (int j = equalities; j < k; ++j) {
+      if (u_[j] < -tolerance_ * u_scale) return false;
+      u_[j] = std::max(u_[j], 0.0);
+    }
+    x_.noalias() += Y * u_.head(k);
+  }
+  llt_.matrixU().solveInPlace(x_);
+  Side p;
+  double violation = 0.0;
+  if (most_violated(p, violation)) return false;
+  return finish(true);
+}
+
+// w = (−r on the working set, 1 on p): Σ wᵢnᵢ should vanish and wᵀb be positive. For any z,
+// wᵀ(Nᵀz − b) = (Σ wᵢnᵢ)ᵀz − wᵀb, so a feasible z (every term ≥ 0, equalities 0) would need
+// ‖Σ wᵢnᵢ‖∞ ‖z‖₁ ≥ wᵀb: the certificate proves that no feasible point has
+// ‖z‖₁ ≤ R = 10·max(1, ‖z_k‖₁), the same test as the interior point's fallback certificate.
+bool DualActiveSet::check_certificate(Side p) {
+  res_.setZero();
+  add_normal(p, 1.0, res_);
+  double wb = value(p);
+  double w_max = 1.0;
+  for (int j = 0; j < count_; ++j) {
+    add_normal(active_[j], -r_[j], res_);
+    wb -= r_[j] * value(active_[j]);
+    w_max = std::max(w_max, std::abs(r_[j]));
+  }
+  const double radius = 10.0 * std::max(1.0, x_.lpNorm<1>());
+  const double residual = res_.cwiseAbs().maxCoeff();
+  return wb > 1e-9 * w_max && residual * radius < wb;
+}
+
+ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int max_iterations,
+                                      double tolerance) {
+  q_ = &q;
+  tolerance_ = tolerance;
+  iterations_ = 0;
+  count_ = 0;
+  llt_.compute(q.H);
+  if (llt_.info() != Eigen::Success) return ActiveSetOutcome::kNotStrictlyConvex;
+  {
+    const auto diag = llt_.matrixLLT().diagonal().cwiseAbs();
+    const double ratio = diag.maxCoeff() / diag.minCoeff();
+    if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
+  }
+  if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
+  count_ = 0;
+  // J = L⁻ᵀ: solve Lᵀ J = I.
+  J_.setIdentity();
+  llt_.matrixU().solveInPlace(J_);
+  R_.setZero();
+
+  // Equalities first (always in the working set), then the previous inequalities.
+  for (int k = 0; k < p_; ++k) add(Side{kEqualityRow, k});
+  for (int j = 0; j < m_; ++j) {
+    if (is_equality(Side{kRowLower, j})) add(Side{kRowLower, j});
+  }
+  for (int i = 0; i < n_ && q.lb.size() != 0; ++i) {
+    if (is_equality(Side{kLower, i})) add(Side{kLower, i});
+  }
+  const int equalities = count_;
+  if (hot_start) {
+    for (int k = 0; k < saved_count_; ++k) {
+      if (usable(saved_[k])) add(saved_[k]);
+    }
+  }
+  solve_working_set();
+  // Make the start dual feasible: drop the most negative inequality multiplier until none is.
+  for (;;) {
+    int worst = -1;
+    for (int j = equalities; j < count_; ++j) {
+      if (u_[j] < 0.0 && (worst < 0 || u_[j] < u_[worst])) worst = j;
+    }
+    if (worst < 0) break;
+    drop(worst);
+    solve_working_set();
+  }
+
+  Side p;
+  double violation = 0.0;
+  while (most_violated(p, violation)) {
+    if (++iterations_ > max_iterations) return ActiveSetOutcome::kIterationLimit;
+    double u_p = 0.0;  // multiplier of p along the step
+    for (;;) {
+      const int qc = count_;
+      jt_normal(p);
+      // (2): primal direction s = J₂d₂, dual direction r = R⁻¹d₁.
+      const double d2_norm2 = d_.tail(n_ - qc).squaredNorm();
+      const bool has_primal_step = d2_norm2 > kDependence * kDependence * d_.squaredNorm();
+      if (has_primal_step) step_.noalias() = J_.rightCols(n_ - qc) * d_.tail(n_ - qc);
+      if (qc > 0) {
+        r_.head(qc) = d_.head(qc);
+        R_.topLeftCorner(qc, qc).triangularView<Eigen::Upper>().solveInPlace(r_.head(qc));
+      }
+      // Partial step: the first inequality multiplier to reach zero.
+      double t1 = kInfinity;
+      int k = -1;
+      for (int j = equalities; j < qc; ++j) {
+        if (r_[j] > 0.0 && u_[j] / r_[j] < t1) {
+          t1 = u_[j] / r_[j];
+          k = j;
+        }
+      }
+      const double slack = normal_dot(p, x_) - value(p);
+      const double t2 = has_primal_step ? std::max(0.0, -slack / d2_norm2) : kInfinity;
+      if (!has_primal_step && k < 0) {
+        return check_certificate(p) ? ActiveSetOutcome::kInfeasible
+                                    : ActiveSetOutcome::kNumericalError;
+      }
+      const double t = std::min(t1, t2);
+      if (has_primal_step) x_.noalias() += t * step_;
+      if (qc > 0) u_.head(qc) -= t * r_.head(qc);
+      u_p += t;
+      if (t2 <= t1) {
+        if (!add(p)) return ActiveSetOutcome::kNumericalError;
+        u_[count_ - 1] = u_p;
+        break;
+      }
+      u_[k] = 0.0;
+      drop(k);
+      if (++iterations_ > max_iterations) return ActiveSetOutcome::kIterationLimit;
+    }
+  }
+  // The steps accumulate round-off; (1) on the final working set puts z exactly on it.
+  solve_working_set();
+  for (int j = equalities; j < count_; ++j) {
+    if (u_[j] < 0.0) u_[j] = 0.0;  // round-off of a degenerate side; the check below decides
+  }
+  if (most_violated(p, violation)) return ActiveSetOutcome::kNumericalError;
+  if (!finish(true)) return ActiveSetOutcome::kNumericalError;
+  saved_count_ = 0;
+  for (int j = equalities; j < count_; ++j) saved_[saved_count_++] = active_[j];
+  return ActiveSetOutcome::kSolved;
+}
+
+bool DualActiveSet::finish(bool gx_current) {
+  const QpProblem& q = *q_;
+  hx_.noalias() = q.H * x_;
+  objective_ = 0.5 * x_.dot(hx_) + q.f.dot(x_);
+  // Stationarity Hz + f − Σ uⱼnⱼ = 0.
+  res_.setZero();
+  for (int j = 0; j < count_; ++j) add_normal(active_[j], u_[j], res_);
+  const double scale = std::max({1.0, hx_.cwiseAbs().maxCoeff(), q.f.cwiseAbs().maxCoeff(),
+                                 res_.cwiseAbs().maxCoeff()});
+  res_ = hx_ + q.f - res_;
+  dual_residual_ = res_.cwiseAbs().maxCoeff();
+  // Largest violation of any side (absolute), equalities included.
+  double worst = 0.0;
+  for (int i = 0; i < n_; ++i) {
+    if (q.lb.size() != 0 && finite_side(q.lb[i])) worst = std::max(worst, q.lb[i] - x_[i]);
+    if (q.ub.size() != 0 && finite_side(q.ub[i])) worst = std::max(worst, x_[i] - q.ub[i]);
+  }
+  if (m_ > 0 && !gx_current) gx_.head(m_).noalias() = q.G * x_;
+  for (int j = 0; j < m_; ++j) {
+    if (finite_side(q.lg[j])) worst = std::max(worst, q.lg[j] - gx_[j]);
+    if (finite_side(q.ug[j])) worst = std::max(worst, gx_[j] - q.ug[j]);
+  }
+  for (int k = 0; k < p_; ++k) worst = std::max(worst, std::abs(q.A.row(k).dot(x_) - q.b[k]));
+  primal_residual_ = worst;
+  // Every equality must hold, also those left out of the working set as dependent (the
+  // inequalities were checked by most_violated()).
+  auto holds = [&](Side c) {
+    return std::abs(normal_dot(c, x_) - value(c)) <=
+           tolerance_ * std::max({1.0, norm(c), std::abs(value(c))});
+  };
+  for (int k = 0; k < p_; ++k) {
+    if (!holds(Side{kEqualityRow, k})) return false;
+  }
+  for (int j = 0; j < m_; ++j) {
+    if (is_equality(Side{kRowLower, j}) && !holds(Side{kRowLower, j})) return false;
+  }
+  for (int i = 0; i < n_ && q.lb.size() != 0; ++i) {
+    if (is_equality(Side{kLower, i}) && !holds(Side{kLower, i})) return false;
+  }
+  return dual_residual_ <= 10.0 * tolerance_ * scale;
+}
+
+void DualActiveSet::multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,
+                                Eigen::VectorXd& dual_eq) const {
+  dual_bounds.setZero(n_);
+  dual_rows.setZero(m_);
+  dual_eq.setZero(p_);
+  for (int j = 0; j < count_; ++j) {
+    const Side c = active_[j];
+    switch (c.kind) {
+      case kLower:
+        dual_bounds[c.index] = -u_[j];
+        break;
+      case kUpper:
+        dual_bounds[c.index] = u_[j];
+        break;
+      case kRowLower:
+        dual_rows[c.index] = -u_[j];
+        break;
+      case kRowUpper:
+        dual_rows[c.index] = u_[j];
+        break;
+      default:
+        dual_eq[c.index] = -u_[j];
+    }
+  }
+}
+
+void DualActiveSet::set_working_set(const QpResult& result, double threshold) {
+  saved_count_ = 0;
+  for (int i = 0; i < n_ && i < result.dual_bounds.size() && saved_count_ < n_; ++i) {
+    const double w = result.dual_bounds[i];
+    if (std::abs(w) > threshold) saved_[saved_count_++] = Side{w > 0.0 ? kUpper : kLower, i};
+  }
+  for (int j = 0; j < m_ && j < result.dual_rows.size() && saved_count_ < n_; ++j) {
+    const double w = result.dual_rows[j];
+    if (std::abs(w) > threshold) saved_[saved_count_++] = Side{w > 0.0 ? kRowUpper : kRowLower, j};
+  }
+}
+
+}  // namespace ridgeline::qp

@@ -1,0 +1,113 @@
+// Goldfarb–Idnani dual active-set method for strictly convex dense QPs: the fast path of
+// QpSolver (QpMethod::kActiveSet), hot-started from the previous solve's working set.
+//
+// Every finite side is a one-sided constraint nᵀz ≥ b with normal n and value b:
+//   lower bound  e_iᵀz ≥ lb_i,   upper bound  −e_iᵀz ≥ −ub_i,
+//   lower row    g_jᵀz ≥ lg_j,   upper row    −g_jᵀz ≥ −ug_j,   equality row a_kᵀz = b_k
+// (a row with lg == ug and a variable with lb == ub are equalities too). With H = LLᵀ and the
+// working set's normals N (n×q), the method keeps J = L⁻ᵀQ and R (q×q, upper triangular) with
+// L⁻¹N = Q₁R, Q = [Q₁ Q₂] orthogonal, J = [J₁ J₂]. Then (Goldfarb & Idnani 1983)
+//
+//   the equality-constrained minimizer on the working set is
+//     z = J₁R⁻ᵀb_A − J₂J₂ᵀf,   multipliers u = R⁻¹(R⁻ᵀb_A + J₁ᵀf),                     (1)
+//   and for a violated constraint p, with d = Jᵀn_p = [d₁; d₂],
+//     primal step direction s = J₂d₂,   dual step direction r = R⁻¹d₁.                     (2)
+//
+// The dual method keeps u ≥ 0 on inequalities (dual feasibility) and adds violated
+// constraints: the step t along (2) is the smaller of the full step −(n_pᵀz − b_p)/‖d₂‖² that
+// makes p active and the partial step min u_j/r_j (r_j > 0) at which a multiplier reaches
+// zero (that constraint is dropped). Adding or dropping a constraint updates J and R by Givens
+// rotations in O(n²). When d₂ = 0 and no r_j > 0, w = (−r, 1) on (working set, p) is a Farkas
+// certificate (Σ wᵢnᵢ = 0, wᵀb > 0): no point satisfies the constraints. The certificate is
+// checked numerically before kInfeasible is returned.
+//
+// Hot start: the previous working set (inequalities whose sides still exist) is factored at
+// once; (1) gives its minimizer; constraints with negative multipliers are dropped one at a time
+// (most negative first) until u ≥ 0, which is a valid dual-feasible start. On an MPC sequence
+// the working set changes little from one period to the next, so a solve is one factorization
+// of H, q rank-one updates and a few iterations.
+//
+// All storage is sized by resize(); solve() allocates nothing.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include "qp/qp_solver.hpp"
+
+namespace ridgeline::qp {
+
+enum class ActiveSetOutcome {
+  kSolved,             ///< primal and dual feasible, complementary; checked on the data
+  kInfeasible,         ///< a Farkas certificate was found and checked
+  kIterationLimit,     ///< stopped at the iteration cap
+  kNotStrictlyConvex,  ///< H is not numerically positive definite (cond ≳ 1e14)
+  kNumericalError,     ///< dependent equalities, a failed check of the result
+};
+
+class DualActiveSet {
+ public:
+  /// Sizes the workspace for n variables, up to m general rows and p equality rows; allocates
+  /// only when a size grows. Forgets the working set when n or p changes.
+  void resize(int n, int m, int p);
+  /// Solves `q` (valid input, sized as in resize()). `hot_start`: start from the working set of
+  /// the last kSolved. `tolerance`: feasibility tolerance per side, times max(1, ‖n‖), and the
+  /// relative tolerance of the final stationarity check.
+  ActiveSetOutcome solve(const QpProblem& q, bool hot_start, int max_iterations,
+                         double tolerance);
+  /// Forgets the working set (the next solve starts from the unconstrained minimizer).
+  void forget() { saved_count_ = 0; }
+  /// Takes the working set from signed multipliers in QpResult's convention (a side is in it
+  /// when its multiplier's magnitude exceeds `threshold`), e.g. after a fallback solve.
+  void set_working_set(const QpResult& result, double threshold);
+
+  const Eigen::VectorXd& z() const { return x_; }
+  /// Multipliers in QpResult's convention (+ upper side, − lower side).
+  void multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,
+                   Eigen::VectorXd& dual_eq) const;
+  int iterations() const { return iterations_; }
+  int working_set_size() const { return count_; }
+  double objective() const { return objective_; }
+  double primal_residual() const { return primal_residual_; }
+  double dual_residual() const { return dual_residual_; }
+
+ private:
+  enum Kind : int { kLower = 0, kUpper = 1, kRowLower = 2, kRowUpper = 3, kEqualityRow = 4 };
+  struct Side {
+    int kind = kLower;
+    int index = 0;
+  };
+
+  bool is_equality(Side c) const;
+  double normal_dot(Side c, const Eigen::VectorXd& v) const;
+  double value(Side c) const;
+  double norm(Side c) const;
+  void add_normal(Side c, double a, Eigen::Ref<Eigen::VectorXd> out) const;  // out += a·n_c
+  bool usable(Side c) const;  // a saved side that exists in this problem as an inequality
+  void jt_normal(Side c);                                         // d_ = Jᵀn_c
+  bool add(Side c);  // adds c to the factorization; false (nothing added) if c is dependent
+  void drop(int k);  // removes working-set entry k
+  void solve_working_set();  // (1): x_ and u_
+  bool most_violated(Side& c, double& violation);
+  bool check_certificate(Side p);
+  bool finish(bool gx_current);  // objective, residuals, the stationarity check
+  bool try_working_set(bool hot_start);  // the fast path (see the implementation)
+
+  int n_ = -1, m_ = -1, p_ = -1, m_capacity_ = -1;
+  const QpProblem* q_ = nullptr;
+  double tolerance_ = 1e-10;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::MatrixXd J_, R_;
+  Eigen::VectorXd x_, u_, d_, step_, r_, jtf_, v_, hx_, res_, gx_;
+  Eigen::MatrixXd Y_, S_;  // the fast path's L⁻¹N and its Gram matrix
+  Eigen::VectorXd dual_bounds_, dual_eq_;
+  // Working set: count_ entries; saved_ is the working set of the last kSolved (for hot start).
+  std::vector<Side> active_, saved_;
+  int count_ = 0, saved_count_ = 0;
+  int iterations_ = 0;
+  double objective_ = 0.0, primal_residual_ = 0.0, dual_residual_ = 0.0;
+};
+
+}  // namespace ridgeline::qp

@@ -1,0 +1,129 @@
+#include "sim/qp_benchmark.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "qp/ipopt_reference.hpp"
+
+namespace ridgeline::sim {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double elapsed_us(Clock::time_point start) {
+  return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+}
+
+// Largest violation of a finite side, measured on the data (not taken from the solver).
+double violation(const qp::QpProblem& q, const Eigen::VectorXd& z) {
+  double worst = 0.0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    if (q.lb.size() != 0 && std::isfinite(q.lb[i])) worst = std::max(worst, q.lb[i] - z[i]);
+    if (q.ub.size() != 0 && std::isfinite(q.ub[i])) worst = std::max(worst, z[i] - q.ub[i]);
+  }
+  if (q.G.rows() > 0) {
+    const Eigen::VectorXd gz = q.G * z;
+    for (Eigen::Index j = 0; j < gz.size(); ++j) {
+      if (std::isfinite(q.lg[j])) worst = std::max(worst, q.lg[j] - gz[j]);
+      if (std::isfinite(q.ug[j])) worst = std::max(worst, gz[j] - q.ug[j]);
+    }
+  }
+  if (q.A.rows() > 0) worst = std::max(worst, (q.A * z - q.b).cwiseAbs().maxCoeff());
+  return worst;
+}
+
+}  // namespace
+
+nlohmann::json QpBenchmarkReport::to_json() const {
+  return {{"count", count},
+          {"method", method},
+          {"solve_us", sim::to_json(solve_us)},
+          {"iterations", {{"median", iterations.median}, {"max", iterations.max}}},
+          {"failures", {{"count", failures.size()}, {"indices", failures}}},
+          {"fallbacks", fallbacks},
+          {"max_violation", max_violation},
+          {"max_rel_objective_gap", max_rel_objective_gap},
+          {"reference", reference},
+          {"reference_failures", reference_failures},
+          {"floor_llt_us", {{"median", floor_llt_us_median}}},
+          {"median_over_floor", floor_llt_us_median > 0.0 ? solve_us.median / floor_llt_us_median
+                                                           : 0.0},
+          {"p99_over_median", solve_us.median > 0.0 ? solve_us.p99 / solve_us.median : 0.0}};
+}
+
+QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
+                                   const QpBenchmarkOptions& options) {
+  QpBenchmarkReport report;
+  report.count = static_cast<int>(instances.size());
+  report.method = std::string(qp::to_string(options.settings.method));
+  report.reference = options.reference == QpReference::kIpopt ? "ipopt tol 1e-10, bound_relax_factor 0"
+                     : options.reference == QpReference::kInteriorPoint
+                         ? "interior point tol 1e-10, cold"
+                         : "none";
+  qp::QpSolver solver(options.settings);
+  std::vector<double> solve_us, iterations, floor_us, objectives;
+  std::vector<Eigen::VectorXd> solutions;
+  std::vector<bool> solved;
+  solutions.reserve(instances.size());
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::VectorXd x;
+  for (std::size_t k = 0; k < instances.size(); ++k) {
+    const qp::QpProblem& q = instances[k];
+    const auto start = Clock::now();
+    const qp::QpResult& r = solver.solve(q);
+    solve_us.push_back(elapsed_us(start));
+    iterations.push_back(r.iterations);
+    report.fallbacks += r.fell_back ? 1 : 0;
+    solved.push_back(r.status == qp::QpStatus::kSolved);
+    if (!solved.back()) report.failures.push_back(static_cast<int>(k));
+    solutions.push_back(r.z);
+    objectives.push_back(r.objective);
+
+    // The floor: the unconstrained problem of the same instance (storage sized beforehand).
+    if (llt.rows() != q.H.rows()) {
+      llt = Eigen::LLT<Eigen::MatrixXd>(q.H.rows());
+      x.resize(q.H.rows());
+    }
+    const auto floor_start = Clock::now();
+    llt.compute(q.H);
+    x = -q.f;
+    llt.solveInPlace(x);
+    floor_us.push_back(elapsed_us(floor_start));
+  }
+  // Accuracy, outside the timed region.
+  qp::QpSolver reference_solver(qp::QpSettings{.tolerance = 1e-10, .warm_start = false});
+  for (std::size_t k = 0; k < instances.size(); ++k) {
+    if (solved[k]) {
+      report.max_violation = std::max(report.max_violation, violation(instances[k], solutions[k]));
+    }
+    if (!solved[k] || options.reference == QpReference::kNone) continue;
+    const qp::QpProblem& q = instances[k];
+    bool ok = false;
+    double reference_objective = 0.0;
+    if (options.reference == QpReference::kIpopt) {
+      const qp::IpoptQpSolution ref = qp::solve_with_ipopt(q, 1e-10, 0.0);
+      ok = ref.solved();
+      reference_objective = ref.objective;
+    } else {
+      const qp::QpResult& ref = reference_solver.solve(q);
+      ok = ref.status == qp::QpStatus::kSolved;
+      reference_objective = ref.objective;
+    }
+    if (!ok) {
+      ++report.reference_failures;
+      continue;
+    }
+    report.max_rel_objective_gap =
+        std::max(report.max_rel_objective_gap, std::abs(objectives[k] - reference_objective) /
+                                                   std::max(1.0, std::abs(reference_objective)));
+  }
+  report.solve_us = percentiles(solve_us);
+  report.iterations = percentiles(iterations);
+  report.floor_llt_us_median = percentiles(floor_us).median;
+  return report;
+}
+
+}  // namespace ridgeline::sim

@@ -1,0 +1,236 @@
+// The active-set path of ridgeline::qp::QpSolver (QpMethod::kActiveSet, dual_active_set.hpp)
+// on hand-made cases: hot starts along an MPC-like sequence agree with the interior point and
+// allocate nothing, conflicting sides are reported infeasible (never solved) by a checked
+// certificate, and the fallbacks (PSD H, iteration cap) answer correctly and say so. The
+// cross-checks against Ipopt on random, degenerate and ill-conditioned instances are in
+// qp_solver_ipopt_test.cpp.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+
+#include <Eigen/Dense>
+
+#include "qp/qp_solver.hpp"
+
+// Counts heap allocations (as in qp_solver_test.cpp): this definition interposes glibc's malloc
+// for this test program only; under AddressSanitizer the count is off and the test is skipped.
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_allocations{0};
+}  // namespace
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kCountingMalloc = false;
+#else
+constexpr bool kCountingMalloc = true;
+extern "C" void* __libc_malloc(std::size_t size);
+extern "C" void* malloc(std::size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
+  return __libc_malloc(size);
+}
+#endif
+
+namespace ridgeline::qp {
+namespace {
+
+double inf_norm(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; }
+
+// A condensed tracking problem like the MPC's (cumulative moves L, output rows Φ): 30
+// variables with move bounds, 190 two-sided rows; the target moves a little every step, so
+// consecutive optimal working sets differ in a few sides.
+class TrackingSequence {
+ public:
+  TrackingSequence() {
+    constexpr int kMoves = 10, kInputs = 3, kHorizon = 40;
+    const int n = kMoves * kInputs;
+    phi_ = Eigen::MatrixXd::Zero(kHorizon * kInputs, n);
+    for (int j = 0; j < kHorizon; ++j) {
+      for (int i = 0; i < std::min(j + 1, kMoves); ++i) {
+        phi_.block(kInputs * j, kInputs * i, kInputs, kInputs) =
+            0.1 * (j - i + 1) * Eigen::Matrix3d::Identity();
+      }
+    }
+    Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
+    for (int i = 0; i < kMoves; ++i) {
+      for (int k = 0; k <= i; ++k) L.block(kInputs * i, kInputs * k, kInputs, kInputs).setIdentity();
+    }
+    q_.H = 2.0 * (phi_.transpose() * phi_ + 0.1 * Eigen::MatrixXd::Identity(n, n));
+    q_.lb = Eigen::VectorXd::Constant(n, -1.0);
+    q_.ub = Eigen::VectorXd::Constant(n, 1.0);
+    q_.G.resize(n + phi_.rows() + 40, n);
+    q_.G << L, phi_, phi_.topRows(40);
+    q_.lg.resize(q_.G.rows());
+    q_.ug.resize(q_.G.rows());
+    q_.A.resize(0, n);
+  }
+  const QpProblem& at(int step) {
+    const int n = static_cast<int>(q_.H.rows());
+    const double t = 0.02 * step;
+    Eigen::VectorXd ref(phi_.rows());
+    for (Eigen::Index i = 0; i < ref.size(); ++i) ref[i] = 8.0 * std::sin(0.5 * t + 0.05 * i);
+    q_.f = -2.0 * phi_.transpose() * ref;
+    q_.lg.head(n).setConstant(-3.0);
+    q_.ug.head(n).setConstant(3.0);
+    q_.lg.segment(n, phi_.rows()).setConstant(-4.0 - std::sin(t));
+    q_.ug.segment(n, phi_.rows()).setConstant(4.0 + std::cos(t));
+    q_.lg.tail(40).setConstant(-kInfinity);
+    q_.ug.tail(40).setConstant(3.0);
+    return q_;
+  }
+
+ private:
+  Eigen::MatrixXd phi_;
+  QpProblem q_;
+};
+
+// Hot-started active-set solves against cold interior-point solves (polished, so exact up to
+// round-off): objectives to 1e-9 relative, z to 1e-7 (H's condition number here is ~1e4, so
+// two exact solutions differ by ~1e-12). The active set must not fall back on this sequence,
+// and its hot starts must need far fewer updates than the first, cold solve.
+TEST(DualActiveSetTest, HotStartsAlongAnMpcSequenceAgreeWithTheInteriorPoint) {
+  TrackingSequence sequence;
+  QpSolver fast({.method = QpMethod::kActiveSet});
+  QpSolver reference({.warm_start = false});
+  int first_iterations = 0, later_iterations = 0, active_sides = 0;
+  constexpr int kSteps = 200;
+  for (int step = 0; step < kSteps; ++step) {
+    const QpProblem& q = sequence.at(step);
+    const QpResult& r = fast.solve(q);
+    ASSERT_EQ(r.status, QpStatus::kSolved) << "step " << step;
+    EXPECT_EQ(r.method, QpMethod::kActiveSet);
+    EXPECT_FALSE(r.fell_back);
+    const Eigen::VectorXd z = r.z;
+    const double objective = r.objective;
+    active_sides += static_cast<int>((r.dual_rows.array() != 0.0).count() +
+                                     (r.dual_bounds.array() != 0.0).count());
+    (step == 0 ? first_iterations : later_iterations) += r.iterations;
+    const QpResult& ref = reference.solve(q);
+    ASSERT_EQ(ref.status, QpStatus::kSolved);
+    EXPECT_NEAR(objective, ref.objective, 1e-9 * std::max(1.0, std::abs(ref.objective)));
+    EXPECT_LE(inf_norm(z - ref.z), 1e-7) << "step " << step;
+  }
+  EXPECT_GT(active_sides, kSteps);  // the sequence does exercise constraints
+  EXPECT_GT(first_iterations, 0);
+  EXPECT_LT(later_iterations, (kSteps - 1) * 2);  // hot starts: under 2 updates per solve
+  RecordProperty("first_iterations", first_iterations);
+  RecordProperty("later_iterations", later_iterations);
+}
+
+TEST(DualActiveSetTest, HotStartedSolveDoesNotAllocate) {
+  if (!kCountingMalloc) GTEST_SKIP() << "malloc is interposed by the sanitizer";
+  TrackingSequence sequence;
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  g_allocations = 0;
+  g_counting = true;
+  const QpStatus first = solver.solve(sequence.at(0)).status;
+  g_counting = false;
+  ASSERT_EQ(first, QpStatus::kSolved);
+  ASSERT_GT(g_allocations.load(), 0);  // the counter works: the first solve sizes the workspace
+  // 200 steps: besides fast-path solves, some whose working set changes (dual iterations).
+  for (int step = 1; step < 200; ++step) {
+    const QpProblem& q = sequence.at(step);  // data prepared before counting
+    g_allocations = 0;
+    g_counting = true;
+    const QpStatus status = solver.solve(q).status;
+    g_counting = false;
+    EXPECT_EQ(status, QpStatus::kSolved);
+    EXPECT_EQ(g_allocations.load(), 0) << "step " << step;
+  }
+}
+
+// z₁ ≥ 1 and z₂ ≥ 1 (bounds) against the row z₁ + z₂ ≤ 1: infeasible. The certificate is
+// w = (1, 1, 1) on (z₁ ≥ 1, z₂ ≥ 1, −z₁ − z₂ ≥ −1): Σ wᵢnᵢ = 0, wᵀb = 1 > 0.
+TEST(DualActiveSetTest, ConflictingBoundsAndRowAreReportedInfeasible) {
+  QpProblem q;
+  q.H = Eigen::Matrix2d::Identity();
+  q.f = Eigen::Vector2d(0.0, 0.0);
+  q.lb = Eigen::Vector2d(1.0, 1.0);
+  q.ub = Eigen::Vector2d(kInfinity, kInfinity);
+  q.G = Eigen::RowVector2d(1.0, 1.0);
+  q.lg = Eigen::VectorXd::Constant(1, -kInfinity);
+  q.ug = Eigen::VectorXd::Constant(1, 1.0);
+  q.A.resize(0, 2);
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  const QpResult& r = solver.solve(q);
+  EXPECT_EQ(r.status, QpStatus::kPrimalInfeasible) << to_string(r.status);
+  EXPECT_EQ(r.method, QpMethod::kActiveSet);
+  EXPECT_LE(r.iterations, 4);  // two bounds added, the row found dependent: a few updates
+
+  // A fixed variable (lb = ub = 2) against the row z₁ ≤ 1.
+  q.lb = Eigen::Vector2d(2.0, -kInfinity);
+  q.ub = Eigen::Vector2d(2.0, kInfinity);
+  q.G = Eigen::RowVector2d(1.0, 0.0);
+  EXPECT_EQ(solver.solve(q).status, QpStatus::kPrimalInfeasible);
+
+  // After infeasible instances the next feasible one is solved (the hot start is not stale).
+  q.ug[0] = 3.0;
+  const QpResult& ok = solver.solve(q);
+  ASSERT_EQ(ok.status, QpStatus::kSolved);
+  EXPECT_NEAR(ok.z[0], 2.0, 1e-12);
+  EXPECT_NEAR(ok.z[1], 0.0, 1e-12);
+}
+
+// H = diag(1, 0) is only semidefinite: the active set cannot factor it and the interior point
+// answers, which the result says. min ½z₁² − z₂ with z₂ ≤ 3: z = (0, 3), objective −3.
+TEST(DualActiveSetTest, SemidefiniteHessianFallsBackToTheInteriorPoint) {
+  QpProblem q;
+  q.H = Eigen::Vector2d(1.0, 0.0).asDiagonal();
+  q.f = Eigen::Vector2d(0.0, -1.0);
+  q.lb = Eigen::Vector2d(-kInfinity, -kInfinity);
+  q.ub = Eigen::Vector2d(kInfinity, 3.0);
+  q.G.resize(0, 2);
+  q.A.resize(0, 2);
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  const QpResult& r = solver.solve(q);
+  ASSERT_EQ(r.status, QpStatus::kSolved);
+  EXPECT_TRUE(r.fell_back);
+  EXPECT_EQ(r.method, QpMethod::kInteriorPoint);
+  EXPECT_NEAR(r.objective, -3.0, 1e-8);
+  EXPECT_NEAR(r.z[1], 3.0, 1e-8);
+}
+
+// With a cap of 2 updates a cold solve that needs many cannot finish in the active set; the
+// interior point answers the same optimum (never a capped iterate called solved).
+TEST(DualActiveSetTest, IterationCapFallsBackToTheSameOptimum) {
+  TrackingSequence sequence;
+  const QpProblem& q = sequence.at(0);
+  QpSolver uncapped({.method = QpMethod::kActiveSet});
+  const QpResult& full = uncapped.solve(q);
+  ASSERT_EQ(full.status, QpStatus::kSolved);
+  ASSERT_GT(full.active_set_iterations, 2);
+  const Eigen::VectorXd z = full.z;
+  QpSolver capped({.method = QpMethod::kActiveSet, .active_set_max_iterations = 2});
+  const QpResult& r = capped.solve(q);
+  ASSERT_EQ(r.status, QpStatus::kSolved);
+  EXPECT_TRUE(r.fell_back);
+  EXPECT_EQ(r.active_set_iterations, 3);  // stopped at the first update beyond the cap
+  EXPECT_LE(inf_norm(r.z - z), 1e-7);
+}
+
+// The multipliers follow QpResult's convention (+ upper side, − lower side) like the interior
+// point's: min ½‖z‖² − 2z₁ + 2z₂ + z₃ with −1 ≤ z ≤ 1 and the row z₃ ≥ 0.5:
+// z = (1, −1, 0.5); bound multipliers (+1, −1, 0) (z₁ − 2 + w₁ = 0 → w₁ = 1), row −1.5.
+TEST(DualActiveSetTest, MultipliersHaveTheInteriorPointsSigns) {
+  QpProblem q;
+  q.H = Eigen::Matrix3d::Identity();
+  q.f = Eigen::Vector3d(-2.0, 2.0, 1.0);
+  q.lb = Eigen::Vector3d::Constant(-1.0);
+  q.ub = Eigen::Vector3d::Constant(1.0);
+  q.G = Eigen::RowVector3d(0.0, 0.0, 1.0);
+  q.lg = Eigen::VectorXd::Constant(1, 0.5);
+  q.ug = Eigen::VectorXd::Constant(1, kInfinity);
+  q.A.resize(0, 3);
+  QpSolver fast({.method = QpMethod::kActiveSet});
+  const QpResult& r = fast.solve(q);
+  ASSERT_EQ(r.status, QpStatus::kSolved);
+  EXPECT_EQ(r.method, QpMethod::kActiveSet);
+  EXPECT_LE(inf_norm(r.z - Eigen::Vector3d(1.0, -1.0, 0.5)), 1e-12);
+  EXPECT_LE(inf_norm(r.dual_bounds - Eigen::Vector3d(1.0, -1.0, 0.0)), 1e-12);
+  EXPECT_NEAR(r.dual_rows[0], -1.5, 1e-12);
+  EXPECT_NEAR(r.objective, 0.5 * 2.25 - 2.0 - 2.0 + 0.5, 1e-12);
+  EXPECT_EQ(r.duality_gap, 0.0);
+}
+
+}  // namespace
+}  // namespace ridgeline::qp
