@@ -1,5 +1,6 @@
 #include "planning/trajectory_nlp.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <ceres/jet.h>
 #include <fmt/format.h>
@@ -98,7 +99,17 @@ struct Dual2 {
 // element blocks only ever adds curvature to the exact Hessian.
 template <int N>
 void project_to_psd(Eigen::Matrix<double, N, N>& h) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eigen(h);
+  using Mat = Eigen::Matrix<double, N, N>;
+  Eigen::SelfAdjointEigenSolver<Mat> eigen;
+  if constexpr (N <= 3) {
+    eigen.computeDirect(h);  // closed form for 2×2 and 3×3
+  } else {
+    // Most blocks are already convex: an LDLᵀ with positive pivots says so at a fraction of
+    // the cost of the eigen-decomposition.
+    const Eigen::LDLT<Mat> ldlt(h);
+    if (ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0.0).all()) return;
+    eigen.compute(h);
+  }
   if (eigen.eigenvalues().minCoeff() >= 0.0) return;
   h = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
       eigen.eigenvectors().transpose();
@@ -150,12 +161,13 @@ T turn_cosine(const T* a, const T* b, const T* c) {
   return (ux * vx + uy * vy) / (sqrt(ux * ux + uy * uy + eps2) * sqrt(vx * vx + vy * vy + eps2));
 }
 
-// Vertex b between a and c: parts[0] = κ_turn·τ·½(L_ab + L_bc) (the turn share of eq. 22),
-// parts[1] = ℓ·τ, τ = 1 − cos φ.
+// Vertex b between a and c, cos φ = turn_cosine(a, b, c) given: parts[0] = κ_turn·τ·½(L_ab + L_bc)
+// (the turn share of eq. 22), parts[1] = ℓ·τ, τ = 1 − cos φ.
 template <typename T>
-void vertex_parts(const T* a, const T* b, const T* c, const ElementParams& q, T* parts) {
+void vertex_parts(const T* a, const T* b, const T* c, const T& cosine, const ElementParams& q,
+                  T* parts) {
   using std::sqrt;
-  const T tau = 1.0 - turn_cosine(a, b, c);
+  const T tau = 1.0 - cosine;
   const T eps2 = T(kNormEps_m * kNormEps_m);
   T l_ab = eps2;
   T l_bc = eps2;
@@ -444,7 +456,7 @@ std::vector<UavCost> TrajectoryNlp::costs(const double* x, double* collision_cos
       const double* b = x + 3 * point(i, k);
       const double* cc = x + 3 * point(i, k + 1);
       double parts[2];
-      vertex_parts(a, b, cc, q, parts);
+      vertex_parts(a, b, cc, turn_cosine(a, b, cc), q, parts);
       c.range += parts[0];
       c.turn += parts[1];
       c.turn_penalty += q.nominal_m * o.turn_penalty * x[turn_slack(i, k)];
@@ -510,7 +522,7 @@ void TrajectoryNlp::gradient(const double* x, double* grad) const {
       for (int m = 0; m < 3; ++m)
         for (int d = 0; d < 3; ++d) p[m][d] = Jet9(x[v[m] + d], 3 * m + d);
       Jet9 parts[2];
-      vertex_parts(p[0], p[1], p[2], q, parts);
+      vertex_parts(p[0], p[1], p[2], turn_cosine(p[0], p[1], p[2]), q, parts);
       const Jet9 f = l1 * (o.weight_range * parts[0] + o.weight_turn * parts[1]);
       for (int m = 0; m < 3; ++m)
         for (int d = 0; d < 3; ++d) grad[v[m] + d] += f.v[3 * m + d];
@@ -711,23 +723,58 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
         for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
     }
     for (int k = 1; k < n; ++k) {
-      using D = Dual2<9>;
+      // f = l1·(w1·κ_turn·τ·½(L_ab + L_bc) + w3·ℓ·τ) + λ·cos φ = τ·(A − λ) + λ with
+      // τ = 1 − cos φ (x, y of a, b, c only) and A = l1·(w1·κ_turn·½(L_ab + L_bc) + w3·ℓ), so
+      // ∇²f = (A − λ)∇²τ + τ∇²A + ∇τ∇Aᵀ + ∇A∇τᵀ: τ by forward AD in 6 variables, the lengths
+      // in closed form (∇L = d/L, ∇²L = (I − d dᵀ/L²)/L on d), instead of AD in all 9.
+      using D = Dual2<6>;
       int v[9];
-      D p[3][3];
+      Eigen::Matrix<double, 9, 1> xs;
       for (int m = 0; m < 3; ++m) {
         const int base = 3 * point(i, k - 1 + m);
         for (int d = 0; d < 3; ++d) {
           v[3 * m + d] = base + d;
-          p[m][d] = D::variable(x[base + d], 3 * m + d);
+          xs[3 * m + d] = x[base + d];
         }
       }
-      D parts[2];
-      vertex_parts(p[0], p[1], p[2], q, parts);
-      D f = l1 * (o.weight_range * parts[0] + o.weight_turn * parts[1]);
-      f += lambda[turn_rows_[i][k]] * turn_cosine(p[0], p[1], p[2]);
-      if (convex) project_to_psd(f.H);
+      constexpr int kXy[6] = {0, 1, 3, 4, 6, 7};  // x, y of a, b, c among the 9
+      D pxy[3][2];
+      for (int m = 0; m < 3; ++m)
+        for (int d = 0; d < 2; ++d) pxy[m][d] = D::variable(xs[3 * m + d], 2 * m + d);
+      const D tau = 1.0 - turn_cosine(pxy[0], pxy[1], pxy[2]);
+      const double row_lambda = lambda[turn_rows_[i][k]];
+      const double c_len = l1 * o.weight_range * q.turn_current * 0.5;
+      const Vec3 d_ab = xs.segment<3>(3) - xs.segment<3>(0);
+      const Vec3 d_bc = xs.segment<3>(6) - xs.segment<3>(3);
+      const double L_ab = std::sqrt(d_ab.squaredNorm() + kNormEps_m * kNormEps_m);
+      const double L_bc = std::sqrt(d_bc.squaredNorm() + kNormEps_m * kNormEps_m);
+      const double A = c_len * (L_ab + L_bc) + l1 * o.weight_turn * q.nominal_m;
+      Eigen::Matrix<double, 9, 1> grad_A = Eigen::Matrix<double, 9, 1>::Zero();
+      grad_A.segment<3>(0) -= c_len * d_ab / L_ab;
+      grad_A.segment<3>(3) += c_len * (d_ab / L_ab - d_bc / L_bc);
+      grad_A.segment<3>(6) += c_len * d_bc / L_bc;
+      Eigen::Matrix<double, 9, 1> grad_tau = Eigen::Matrix<double, 9, 1>::Zero();
+      Eigen::Matrix<double, 9, 9> H = Eigen::Matrix<double, 9, 9>::Zero();
+      for (int m = 0; m < 6; ++m) {
+        grad_tau[kXy[m]] = tau.g[m];
+        for (int c = 0; c < 6; ++c) H(kXy[m], kXy[c]) = (A - row_lambda) * tau.H(m, c);
+      }
+      const Eigen::Matrix3d M_ab =
+          (Eigen::Matrix3d::Identity() - d_ab * d_ab.transpose() / (L_ab * L_ab)) / L_ab;
+      const Eigen::Matrix3d M_bc =
+          (Eigen::Matrix3d::Identity() - d_bc * d_bc.transpose() / (L_bc * L_bc)) / L_bc;
+      const double w = tau.v * c_len;
+      H.block<3, 3>(0, 0) += w * M_ab;
+      H.block<3, 3>(0, 3) -= w * M_ab;
+      H.block<3, 3>(3, 0) -= w * M_ab;
+      H.block<3, 3>(3, 3) += w * (M_ab + M_bc);
+      H.block<3, 3>(3, 6) -= w * M_bc;
+      H.block<3, 3>(6, 3) -= w * M_bc;
+      H.block<3, 3>(6, 6) += w * M_bc;
+      H += grad_tau * grad_A.transpose() + grad_A * grad_tau.transpose();
+      if (convex) project_to_psd(H);
       for (int m = 0; m < 9; ++m)
-        for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
+        for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], H(m, c));
     }
     const double coef = l1 * o.weight_altitude * q.nominal_m / o.altitude_scale_m;
     for (int k = 0; k <= n; ++k) {

@@ -481,6 +481,12 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     }
     app->Options()->SetStringValue("mu_strategy", options.adaptive_barrier ? "adaptive" : "monotone");
     app->Options()->SetStringValue("nlp_scaling_method", "user-scaling");
+    // MUMPS with the AMD ordering: on these banded KKT systems (a chain of waypoints per UAV,
+    // a few separation rows between chains) it factors faster than the automatic choice; and
+    // no mandatory iterative-refinement step (Ipopt still refines when the residual asks for
+    // it). Together ~30% less time per iteration on 3 × 100, same iterates.
+    app->Options()->SetIntegerValue("mumps_pivot_order", 0);
+    app->Options()->SetIntegerValue("min_refinement_steps", 0);
     app->Options()->SetNumericValue("tol", options.tolerance);
     app->Options()->SetNumericValue("constr_viol_tol", options.constraint_tolerance);
     app->Options()->SetIntegerValue("max_iter", options.max_iterations);

@@ -79,12 +79,15 @@
 // Rows in m² (speed band, separation) are scaled by 1/(2·length) for Ipopt (user scaling), so all
 // rows read in metres near their bounds. Barrier update: monotone (adaptive measured slower here).
 //
-// Performance (2-core shared machine, Debian's Ipopt 3.11.9 with MUMPS 5.5 — no HSL solvers): an
-// iteration costs ~4 ms for one UAV × 50 waypoints and ~20 ms for 3 × 100, nearly all of it in
-// MUMPS; 3 × 100 from straight-line guesses takes ~95 iterations, median ≈ 2 s (bench): better
-// than the paper's 4–6 s, but the 0.5 s target is NOT met. Every separation row couples two
-// UAVs and fills the KKT factor, so the candidate prefilter is kept tight (50 m: 150 m gave
-// 2.7k rows and a time limit for 10 × 100); pairs it misses are added by the refinement.
+// Performance (2-core shared machine, Debian's Ipopt 3.11.9 with MUMPS 5.5 — no HSL solvers;
+// `ridgeline bench plan`): the default scenario's 3 × 100 (1098 variables, 1401 rows) takes 58
+// iterations of ~10 ms, about half in MUMPS (one factorization and ~3 back-solves each) and a
+// third in the Hessian (the 9×9 vertex blocks and their projection); the whole plan_mission
+// ≈ 0.6–0.7 s CPU. Before: exact indefinite Hessian, 104 iterations of 2–4 factorizations, the
+// automatic MUMPS ordering and a mandatory refinement step, ≈ 2.5 s. Every separation row
+// couples two UAVs and fills the KKT factor, so the candidate prefilter is kept tight (50 m:
+// 150 m gave 2.7k rows and a time limit for 10 × 100); pairs it misses are added by the
+// refinement.
 //
 // Validation and refinement. After every solve the waypoints with their times t_k are checked by
 // validate_plan (plan_validation.hpp): terrain every ≤ 5 m, the altitude band, and separation at
