@@ -82,6 +82,7 @@ void register_bench_command(CLI::App& app) {
     bool json = false;
     std::string method = "active-set";
     std::string reference = "ipopt";
+    int repeats = 3;
   };
   auto qp_options = std::make_shared<QpCommandOptions>();
   CLI::App* qp = bench->add_subcommand(
@@ -89,6 +90,9 @@ void register_bench_command(CLI::App& app) {
   qp->add_option("--instances", qp_options->instances, "RLQP file (gen_mpc_qps.py, --dump-qps)")
       ->required();
   qp->add_flag("--json", qp_options->json, "print the report as JSON");
+  qp->add_option("--repeats", qp_options->repeats,
+                 "passes over the sequence; an instance's time is its minimum over them")
+      ->capture_default_str();
   qp->add_option("--method", qp_options->method, "active-set | interior-point")
       ->capture_default_str();
   qp->add_option("--reference", qp_options->reference,
@@ -97,6 +101,8 @@ void register_bench_command(CLI::App& app) {
       ->capture_default_str();
   qp->callback([qp_options] {
     sim::QpBenchmarkOptions o;
+    if (qp_options->repeats < 1) throw InputError("--repeats", "must be at least 1");
+    o.repeats = qp_options->repeats;
     if (qp_options->method == "active-set") {
       o.settings.method = qp::QpMethod::kActiveSet;
     } else if (qp_options->method == "interior-point") {

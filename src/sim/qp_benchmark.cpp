@@ -1,5 +1,7 @@
 #include "sim/qp_benchmark.hpp"
 
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +17,12 @@ using Clock = std::chrono::steady_clock;
 
 double elapsed_us(Clock::time_point start) {
   return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+}
+
+double thread_cpu_us() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
 }
 
 // Largest violation of a finite side, measured on the data (not taken from the solver).
@@ -40,10 +48,13 @@ double violation(const qp::QpProblem& q, const Eigen::VectorXd& z) {
 nlohmann::json QpBenchmarkReport::to_json() const {
   return {{"count", count},
           {"method", method},
+          {"repeats", repeats},
           {"solve_us", sim::to_json(solve_us)},
+          {"solve_cpu_us", sim::to_json(solve_cpu_us)},
           {"iterations", {{"median", iterations.median}, {"max", iterations.max}}},
           {"failures", {{"count", failures.size()}, {"indices", failures}}},
           {"fallbacks", fallbacks},
+          {"nondeterministic", nondeterministic},
           {"max_violation", max_violation},
           {"max_rel_objective_gap", max_rel_objective_gap},
           {"reference", reference},
@@ -63,35 +74,46 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
                      : options.reference == QpReference::kInteriorPoint
                          ? "interior point tol 1e-10, cold"
                          : "none";
-  qp::QpSolver solver(options.settings);
-  std::vector<double> solve_us, iterations, floor_us, objectives;
+  report.repeats = std::max(1, options.repeats);
+  const std::size_t count = instances.size();
+  std::vector<double> solve_us(count, qp::kInfinity), cpu_us(count), floor_us(count, qp::kInfinity);
+  std::vector<double> iterations, objectives;
   std::vector<Eigen::VectorXd> solutions;
   std::vector<bool> solved;
-  solutions.reserve(instances.size());
+  solutions.reserve(count);
   Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::VectorXd x;
-  for (std::size_t k = 0; k < instances.size(); ++k) {
-    const qp::QpProblem& q = instances[k];
-    const auto start = Clock::now();
-    const qp::QpResult& r = solver.solve(q);
-    solve_us.push_back(elapsed_us(start));
-    iterations.push_back(r.iterations);
-    report.fallbacks += r.fell_back ? 1 : 0;
-    solved.push_back(r.status == qp::QpStatus::kSolved);
-    if (!solved.back()) report.failures.push_back(static_cast<int>(k));
-    solutions.push_back(r.z);
-    objectives.push_back(r.objective);
+  for (int pass = 0; pass < report.repeats; ++pass) {
+    qp::QpSolver solver(options.settings);
+    for (std::size_t k = 0; k < count; ++k) {
+      const qp::QpProblem& q = instances[k];
+      const double cpu_start = thread_cpu_us();
+      const auto start = Clock::now();
+      const qp::QpResult& r = solver.solve(q);
+      solve_us[k] = std::min(solve_us[k], elapsed_us(start));
+      if (pass == 0) {
+        cpu_us[k] = thread_cpu_us() - cpu_start;
+        iterations.push_back(r.iterations);
+        report.fallbacks += r.fell_back ? 1 : 0;
+        solved.push_back(r.status == qp::QpStatus::kSolved);
+        if (!solved.back()) report.failures.push_back(static_cast<int>(k));
+        solutions.push_back(r.z);
+        objectives.push_back(r.objective);
+      } else if (r.objective != objectives[k]) {
+        ++report.nondeterministic;
+      }
 
-    // The floor: the unconstrained problem of the same instance (storage sized beforehand).
-    if (llt.rows() != q.H.rows()) {
-      llt = Eigen::LLT<Eigen::MatrixXd>(q.H.rows());
-      x.resize(q.H.rows());
+      // The floor: the unconstrained problem of the same instance (storage sized beforehand).
+      if (llt.rows() != q.H.rows()) {
+        llt = Eigen::LLT<Eigen::MatrixXd>(q.H.rows());
+        x.resize(q.H.rows());
+      }
+      const auto floor_start = Clock::now();
+      llt.compute(q.H);
+      x = -q.f;
+      llt.solveInPlace(x);
+      floor_us[k] = std::min(floor_us[k], elapsed_us(floor_start));
     }
-    const auto floor_start = Clock::now();
-    llt.compute(q.H);
-    x = -q.f;
-    llt.solveInPlace(x);
-    floor_us.push_back(elapsed_us(floor_start));
   }
   // Accuracy, outside the timed region.
   qp::QpSolver reference_solver(qp::QpSettings{.tolerance = 1e-10, .warm_start = false});
@@ -121,6 +143,7 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
                                                    std::max(1.0, std::abs(reference_objective)));
   }
   report.solve_us = percentiles(solve_us);
+  report.solve_cpu_us = percentiles(cpu_us);
   report.iterations = percentiles(iterations);
   report.floor_llt_us_median = percentiles(floor_us).median;
   return report;
