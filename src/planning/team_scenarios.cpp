@@ -70,32 +70,40 @@ GlobalPlanningProblem scaled_team(const GlobalPlanningProblem& base, int uav_cou
   if (p.uavs.size() > count) p.uavs.resize(count);
   if (p.targets.size() > count) p.targets.resize(count);
 
-  // Starts: rows of 10 behind the base starts' centroid, across the first UAV's heading.
+  // Starts: a launch field around the base starts' centroid, on a lattice aligned with the
+  // first UAV's heading, filled ring by ring outward (points outside the area, 20 m inset, or
+  // closer than the spacing to a start already placed are skipped).
   Vec2 centroid = Vec2::Zero();
   for (const PlannerUav& u : base.uavs) centroid += u.start_m.head<2>();
   centroid /= static_cast<double>(base.uavs.size());
   const PlannerUav& lead = base.uavs.front();
   const Vec2 ahead(std::cos(lead.start_heading_rad), std::sin(lead.start_heading_rad));
   const Vec2 across(ahead.y(), -ahead.x());
-  const double spacing_m = 30.0;
+  const double spacing_m = std::max(30.0, 2.0 * base.separation_m);
   const double start_floor_m = base.terrain_clearance_m + terrain.model_error_m() + 10.0;
-  for (std::size_t extra = 0; p.uavs.size() < count; ++extra) {
-    const int row = static_cast<int>(extra / 10) + 1;  // row 0 is the base's own line
-    const int col = static_cast<int>(extra % 10);
-    const double offset = spacing_m * (col - 4.5);
-    Vec2 xy = centroid + offset * across - 60.0 * row * ahead;
-    xy = xy.cwiseMax(base.area.min_m + Vec2(20.0, 20.0)).cwiseMin(base.area.max_m - Vec2(20.0, 20.0));
-    PlannerUav u = lead;
-    u.name = fmt::format("uav{}", p.uavs.size() + 1);
-    const double z = std::max(lead.start_m.z(), terrain.height(xy.x(), xy.y()) + start_floor_m);
-    u.start_m = Vec3(xy.x(), xy.y(), std::max(z, base.min_altitude_m));
-    for (const PlannerUav& other : p.uavs)
-      if ((other.start_m - u.start_m).norm() < std::max(base.separation_m, 20.0))
-        throw InputError("uav_count",
-                         fmt::format("{} UAVs do not fit: {} would start {:.1f} m from {}",
-                                     uav_count, u.name, (other.start_m - u.start_m).norm(), other.name));
-    p.uavs.push_back(std::move(u));
-  }
+  const Vec2 inner_min = base.area.min_m + Vec2(20.0, 20.0);
+  const Vec2 inner_max = base.area.max_m - Vec2(20.0, 20.0);
+  constexpr int kMaxRing = 100;
+  for (int ring = 1; p.uavs.size() < count && ring <= kMaxRing; ++ring)
+    for (int a = -ring; a <= ring && p.uavs.size() < count; ++a)
+      for (int c = -ring; c <= ring && p.uavs.size() < count; ++c) {
+        if (std::max(std::abs(a), std::abs(c)) != ring) continue;
+        const Vec2 xy = centroid + spacing_m * (a * ahead + c * across);
+        if ((xy.array() < inner_min.array()).any() || (xy.array() > inner_max.array()).any()) continue;
+        bool clear = true;
+        for (const PlannerUav& other : p.uavs)
+          clear = clear && (other.start_m.head<2>() - xy).norm() >= 0.99 * spacing_m;
+        if (!clear) continue;
+        PlannerUav u = lead;
+        u.name = fmt::format("uav{}", p.uavs.size() + 1);
+        const double z = std::max(lead.start_m.z(), terrain.height(xy.x(), xy.y()) + start_floor_m);
+        u.start_m = Vec3(xy.x(), xy.y(), std::max(z, base.min_altitude_m));
+        p.uavs.push_back(std::move(u));
+      }
+  if (p.uavs.size() < count)
+    throw InputError("uav_count", fmt::format("{} UAVs do not fit in the area around the base starts "
+                                              "({} placed)",
+                                              uav_count, p.uavs.size()));
 
   // Targets: a lattice over the (grown) bounding box of the base targets.
   Vec2 lo = base.targets.front().position_m.head<2>();

@@ -34,9 +34,11 @@ std::vector<Vec3> lifted_line(const world::Terrain& terrain, const Vec3& a, cons
 TrajectoryProblem straight_line_team(const world::Terrain& terrain, int count);
 
 /// `base` grown (or cut) to `uav_count` UAVs and as many targets. The first UAVs and targets are
-/// the base's; extra UAVs copy the first UAV's vehicle and start in rows of 10 behind the base
-/// starts, 30 m apart across the first UAV's heading, 60 m between rows, at the base start
-/// altitude or h_safe + 10 m above the terrain if that is higher; extra targets fill a lattice
+/// the base's; extra UAVs copy the first UAV's vehicle and start in a launch field around the
+/// base starts: a lattice of spacing max(30 m, 2·d_safe) aligned with the first UAV's heading,
+/// filled ring by ring outward from the base starts' centroid, inside the area (20 m inset) and
+/// a spacing away from every other start, at the base start altitude or h_safe + 10 m above the
+/// terrain if that is higher; extra targets fill a lattice
 /// over the bounding box of the base targets grown to ≥ 700 m, ≥ 40 m from every other target,
 /// h_safe + 40 m above the terrain (and within the altitude band), priority 1.
 /// Throws InputError (field "uav_count" or "base") when that cannot be done.

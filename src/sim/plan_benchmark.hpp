@@ -2,8 +2,8 @@
 // plan_mission (allocation, initial paths, joint Ipopt optimization eq. 14–24, time
 // parametrization, dense validation) on a base problem — the default scenario at its 3 UAVs ×
 // 100 waypoints — timed `repeats` times, then a scaling table: the same terrain and area grown
-// to 3, 10 and 30 UAVs (planning::scaled_team: extra UAVs start in rows behind the base starts,
-// extra targets fill a lattice over the target area) at 100 and 200 waypoints.
+// to 3, 10 and 30 UAVs (planning::scaled_team: extra UAVs start in a launch field around the base
+// starts, extra targets fill a lattice over the target area) at 100 and 200 waypoints.
 //
 // Each plan is timed whole, in wall-clock time (plan_s, what the target is about) and in
 // process CPU time (plan_cpu_s: robust to other load on a shared machine). Every row says how the
