@@ -2,10 +2,12 @@
 // scenario (the embedded default without --scenario), plans every UAV's reference with the
 // global planner, flies the mission in closed loop (truth world, one agent per UAV talking
 // only through the transport, sudden threats, wind) and writes DIR/summary.json,
-// DIR/plan.json, DIR/metrics.json and DIR/trajectories.csv. Progress goes to stderr, a short
-// table to stdout. Exit 0 when the flight was safe, 4 when a safety metric failed (the outputs
-// are still written: they are the evidence). --variation SEED flies a Monte Carlo variation
-// (the same plan; threats, wind, noise and starts varied) to replay a failed run.
+// DIR/plan.json, DIR/metrics.json, DIR/trajectories.csv and DIR/report.html (the figures, with
+// plotly.js inlined; skipped with a warning when plotly.js is not installed). Progress goes to
+// stderr, a short table to stdout. Exit 0 when the flight was safe, 4 when a safety metric
+// failed (the outputs are still written: they are the evidence). --variation SEED flies a
+// Monte Carlo variation (the same plan; threats, wind, noise and starts varied) to replay a
+// failed run.
 #include <iostream>
 
 #include <fmt/format.h>
@@ -14,6 +16,7 @@
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
 #include "io/plan_file.hpp"
+#include "io/report_html.hpp"
 #include "io/scenario_summary.hpp"
 #include "sim/mission.hpp"
 #include "sim/variation.hpp"
@@ -41,6 +44,23 @@ std::string metrics_table(const sim::MissionMetrics& m) {
       m.wall_time_s > 0 ? m.sim_time_s / m.wall_time_s : 0.0, m.mpc_solve_us.median,
       m.mpc_solve_us.p99);
   return out;
+}
+
+// DIR/report.html, or one warning when plotly.js is missing: the other outputs stand without
+// it, and a report.html left by an earlier run in DIR is removed rather than left beside
+// outputs it does not describe.
+void write_report(const std::filesystem::path& dir, const io::MissionReportInput& input) {
+  std::string plotly_js;
+  try {
+    plotly_js = io::read_plotly_js(io::plotly_js_path());
+  } catch (const InputError& e) {
+    std::error_code not_removed;
+    std::filesystem::remove(dir / "report.html", not_removed);
+    std::cerr << "warning: no report.html: " << e.what() << '\n';
+    return;
+  }
+  io::write_file_atomically(dir / "report.html", io::mission_report_html(input, plotly_js));
+  std::cout << "wrote report.html to " << dir.string() << '\n';
 }
 
 }  // namespace
@@ -101,6 +121,7 @@ void register_run_command(CLI::App& app) {
     io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
     std::cout << "wrote summary.json, plan.json, metrics.json and trajectories.csv to "
               << dir.string() << '\n';
+    write_report(dir, {flown_scenario, *loaded.terrain, m, flown.trajectories});
     if (!m.safe()) {
       std::cerr << "error: the flight broke a safety constraint (see metrics.json)\n";
       set_exit_code(4);

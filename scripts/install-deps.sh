@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages Ridgeline builds and tests with.
+# Installs the Debian 12 packages Ridgeline builds with (and with --test, tests with).
 # Idempotent: when every package is already installed it prints nothing and touches nothing.
 set -euo pipefail
 
@@ -16,6 +16,11 @@ packages=(
   libspdlog-dev libfmt-dev # logging, formatting
   libgtest-dev libgmock-dev libbenchmark-dev
 )
+# With --test (make test), also what only the tests use.
+test_packages=(
+  chromium                 # headless browser: the report.html test (tests/apps/report_browser_test.cpp)
+)
+if [ "${1:-}" = "--test" ]; then packages+=("${test_packages[@]}"); fi
 
 missing=()
 for p in "${packages[@]}"; do
