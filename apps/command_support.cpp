@@ -3,6 +3,8 @@
 #include <iostream>
 
 #include "apps/commands.hpp"
+#include "io/atomic_file.hpp"
+#include "io/report_html.hpp"
 #include "sim/mission_problem.hpp"
 
 namespace ridgeline::apps {
@@ -20,6 +22,21 @@ std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loa
             << "): " << plan.message << '\n';
   set_exit_code(3);
   return std::nullopt;
+}
+
+void write_report(const std::filesystem::path& dir,
+                  const std::function<std::string(std::string_view plotly_js)>& build) {
+  std::string plotly_js;
+  try {
+    plotly_js = io::read_plotly_js(io::plotly_js_path());
+  } catch (const InputError& e) {
+    std::error_code not_removed;
+    std::filesystem::remove(dir / "report.html", not_removed);
+    std::cerr << "warning: no report.html: " << e.what() << '\n';
+    return;
+  }
+  io::write_file_atomically(dir / "report.html", build(plotly_js));
+  std::cout << "wrote report.html to " << dir.string() << '\n';
 }
 
 }  // namespace ridgeline::apps

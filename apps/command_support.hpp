@@ -1,8 +1,11 @@
 // Steps several subcommands share, so each command file stays a thin shell.
 #pragma once
 
+#include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "io/scenario_file.hpp"
 #include "planning/global_planner.hpp"
@@ -14,5 +17,12 @@ io::LoadedScenario load_scenario_argument(const std::string& path);
 
 /// Plans the mission; on failure prints one error line, sets exit code 3 and returns nothing.
 std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded);
+
+/// Writes DIR/report.html as `build(plotly_js)` makes it, with the plotly bundle from
+/// io::plotly_js_path(). When the bundle is missing, prints one warning saying how to install
+/// it and writes no report (removing one an earlier run left in DIR, which would not describe
+/// the outputs beside it); the command's other outputs stand.
+void write_report(const std::filesystem::path& dir,
+                  const std::function<std::string(std::string_view plotly_js)>& build);
 
 }  // namespace ridgeline::apps

@@ -1,8 +1,9 @@
 // `ridgeline montecarlo --runs N --threads T [--scenario FILE] --out DIR`: one plan, N flights
 // of randomized variations (threat paths and times, wind, sensor noise, start jitter), on T
 // threads, with a progress bar on stderr. Writes DIR/summary.json (counts, rates with Wilson
-// 95 % intervals, each metric's distribution, every failed run's seed) and DIR/runs.json (each
-// run's metrics). Exit 0 when every run was safe, 4 otherwise (the files are still written).
+// 95 % intervals, each metric's distribution, every failed run's seed), DIR/runs.json (each
+// run's metrics) and DIR/report.html (the rates and distributions as charts). Exit 0 when
+// every run was safe, 4 otherwise (the files are still written).
 #include <iostream>
 #include <thread>
 
@@ -11,6 +12,7 @@
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
+#include "io/report_html.hpp"
 #include "sim/monte_carlo.hpp"
 
 namespace ridgeline::apps {
@@ -82,6 +84,9 @@ void register_montecarlo_command(CLI::App& app) {
                                f["seed"].get<std::uint64_t>(), f["reasons"].dump());
     std::cout << "wrote " << (dir / "summary.json").string() << " and "
               << (dir / "runs.json").string() << '\n';
+    write_report(dir, [&](std::string_view plotly_js) {
+      return io::montecarlo_report_html(summary, runs, plotly_js);
+    });
     if (!summary["failed_runs"].empty()) set_exit_code(4);
   });
 }

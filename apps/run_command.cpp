@@ -46,23 +46,6 @@ std::string metrics_table(const sim::MissionMetrics& m) {
   return out;
 }
 
-// DIR/report.html, or one warning when plotly.js is missing: the other outputs stand without
-// it, and a report.html left by an earlier run in DIR is removed rather than left beside
-// outputs it does not describe.
-void write_report(const std::filesystem::path& dir, const io::MissionReportInput& input) {
-  std::string plotly_js;
-  try {
-    plotly_js = io::read_plotly_js(io::plotly_js_path());
-  } catch (const InputError& e) {
-    std::error_code not_removed;
-    std::filesystem::remove(dir / "report.html", not_removed);
-    std::cerr << "warning: no report.html: " << e.what() << '\n';
-    return;
-  }
-  io::write_file_atomically(dir / "report.html", io::mission_report_html(input, plotly_js));
-  std::cout << "wrote report.html to " << dir.string() << '\n';
-}
-
 }  // namespace
 
 void register_run_command(CLI::App& app) {
@@ -121,7 +104,10 @@ void register_run_command(CLI::App& app) {
     io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
     std::cout << "wrote summary.json, plan.json, metrics.json and trajectories.csv to "
               << dir.string() << '\n';
-    write_report(dir, {flown_scenario, *loaded.terrain, m, flown.trajectories});
+    write_report(dir, [&](std::string_view plotly_js) {
+      return io::mission_report_html({flown_scenario, *loaded.terrain, m, flown.trajectories},
+                                     plotly_js);
+    });
     if (!m.safe()) {
       std::cerr << "error: the flight broke a safety constraint (see metrics.json)\n";
       set_exit_code(4);

@@ -15,7 +15,8 @@
 
 namespace ridgeline::io {
 
-extern const char* const kReportTemplateHtml;  // generated from web/report_template.html
+extern const char* const kReportTemplateHtml;      // generated from web/report_template.html
+extern const char* const kMonteCarloTemplateHtml;  // from web/montecarlo_template.html
 
 namespace {
 
@@ -290,6 +291,92 @@ std::string mission_report_html(const MissionReportInput& input, std::string_vie
                                               {"{{PLOTLY_JS}}", js},
                                               {"{{METRICS_TABLES}}", tables},
                                               {"{{REPORT_DATA}}", json}});
+}
+
+nlohmann::json montecarlo_report_data(const nlohmann::json& summary, const nlohmann::json& runs) {
+  if (!summary.is_object() || !runs.is_array())
+    throw InputError("montecarlo report", "needs summary.json's object and runs.json's array");
+  struct Series {
+    const char* name;
+    const char* scope;
+    const char* unit;
+  };
+  static constexpr std::array<Series, 8> kSeries{{
+      {"min_separation_m", "mission", "m"},
+      {"min_threat_distance_m", "mission", "m"},
+      {"avoidance_success_rate", "mission", "fraction"},
+      {"sim_time_s", "mission", "s"},
+      {"path_length_m", "uav", "m"},
+      {"tracking_rmse_m", "uav", "m"},
+      {"min_terrain_clearance_m", "uav", "m"},
+      {"replans", "uav", "re-plans"},
+  }};
+  nlohmann::json distributions = nlohmann::json::array();
+  for (const Series& series : kSeries) {
+    nlohmann::json values = nlohmann::json::array();
+    auto add = [&values, &series](const nlohmann::json& object) {
+      const auto it = object.find(series.name);
+      if (it != object.end() && it->is_number()) values.push_back(rounded(it->get<double>(), 1e-4));
+    };
+    for (const nlohmann::json& run : runs) {
+      if (std::string_view(series.scope) == "mission") {
+        add(run);
+      } else if (const auto u = run.find("uavs"); u != run.end() && u->is_array()) {
+        for (const nlohmann::json& uav : *u) add(uav);
+      }
+    }
+    distributions.push_back(
+        {{"name", series.name}, {"scope", series.scope}, {"unit", series.unit}, {"values", values}});
+  }
+  return {{"title", summary.value("scenario", std::string("unnamed"))},
+          {"runs", runs.size()},
+          {"summary", summary},
+          {"distributions", distributions}};
+}
+
+namespace {
+
+/// Counts, the summary's percentiles per metric and the failed runs with their replays.
+std::string montecarlo_tables(const nlohmann::json& summary) {
+  std::string html = "<table id=\"mc-counts\">\n<tr><th>count</th><th>value</th></tr>\n";
+  const nlohmann::json counts = summary.value("counts", nlohmann::json::object());
+  const nlohmann::json metrics = summary.value("metrics", nlohmann::json::object());
+  for (const auto& [key, value] : counts.items())
+    html += "<tr><td>" + escape_html(key) + "</td><td>" + cell(value) + "</td></tr>\n";
+  html += "</table>\n<table id=\"mc-metrics\">\n<tr><th>metric</th>";
+  const std::array<const char*, 6> stats{"count", "min", "median", "mean", "p90", "max"};
+  for (const char* stat : stats) html += fmt::format("<th>{}</th>", stat);
+  html += "</tr>\n";
+  for (const auto& [key, value] : metrics.items()) {
+    html += "<tr><td>" + escape_html(key) + "</td>";
+    for (const char* stat : stats) html += "<td>" + cell(value.value(stat, nlohmann::json())) + "</td>";
+    html += "</tr>\n";
+  }
+  html += "</table>\n<table id=\"mc-failed\">\n<tr><th>run</th><th>seed</th><th>reasons</th>"
+          "<th>replay</th></tr>\n";
+  const nlohmann::json failed = summary.value("failed_runs", nlohmann::json::array());
+  for (const nlohmann::json& f : failed)
+    html += "<tr><td>" + cell(f.value("run", nlohmann::json())) + "</td><td>" +
+            cell(f.value("seed", nlohmann::json())) + "</td><td>" +
+            cell(f.value("reasons", nlohmann::json())) + "</td><td><code>" +
+            cell(f.value("replay", nlohmann::json())) + "</code></td></tr>\n";
+  if (failed.empty()) html += "<tr><td colspan=\"4\">none</td></tr>\n";
+  return html + "</table>";
+}
+
+}  // namespace
+
+std::string montecarlo_report_html(const nlohmann::json& summary, const nlohmann::json& runs,
+                                   std::string_view plotly_js) {
+  const nlohmann::json data = montecarlo_report_data(summary, runs);
+  const std::string title = escape_html(data.at("title").get<std::string>());
+  const std::string tables = montecarlo_tables(summary);
+  const std::string js = script_safe_js(plotly_js);
+  const std::string json = script_safe_json(data);
+  return fill_template(kMonteCarloTemplateHtml, {{"{{TITLE}}", title},
+                                                  {"{{PLOTLY_JS}}", js},
+                                                  {"{{METRICS_TABLES}}", tables},
+                                                  {"{{REPORT_DATA}}", json}});
 }
 
 std::filesystem::path plotly_js_path() {

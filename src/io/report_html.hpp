@@ -63,6 +63,18 @@ nlohmann::json mission_report_data(const MissionReportInput& input,
 std::string mission_report_html(const MissionReportInput& input, std::string_view plotly_js,
                                 const ReportOptions& options = {});
 
+/// The data block of `ridgeline montecarlo`'s report: {"title", "runs", "summary" (as given),
+/// "distributions": [{name, scope ("mission": one value per run, "uav": one per UAV and run),
+/// unit, values}]}. `summary` and `runs` are summary.json and runs.json as montecarlo writes
+/// them; a value that is null (e.g. no threat met) is left out of its distribution.
+nlohmann::json montecarlo_report_data(const nlohmann::json& summary, const nlohmann::json& runs);
+
+/// DIR/report.html of `ridgeline montecarlo`: the rates with their Wilson 95 % intervals, a
+/// histogram of each distribution, the counts, the summary's percentiles and the failed runs
+/// with the commands that replay them. Same status line as mission_report_html.
+std::string montecarlo_report_html(const nlohmann::json& summary, const nlohmann::json& runs,
+                                   std::string_view plotly_js);
+
 /// The environment variable that overrides where plotly.min.js is read from.
 inline constexpr const char* kPlotlyJsEnvVar = "RIDGELINE_PLOTLY_JS";
 

@@ -4,7 +4,7 @@
 // every plot was drawn — the 3-D view in WebGL included — and that no JavaScript error
 // happened. A copy with an error planted in it must be caught, so the check can fail. Without
 // plotly.js, `run` still writes its other outputs, warns once naming the missing file, and
-// leaves no report.html behind.
+// leaves no report.html behind. `ridgeline montecarlo`'s report is checked the same way.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -155,6 +155,20 @@ TEST_F(ReportInBrowser, AJavaScriptErrorInThePageIsCaught) {
   const std::string status = browser_status(broken, *dir_);
   EXPECT_EQ(status.rfind("error:", 0), 0u) << status;
   EXPECT_NE(status.find("ridgelineNoSuchFunction"), std::string::npos) << status;
+}
+
+TEST(MonteCarloReportInBrowser, RatesAndEveryDistributionRenderWithoutJavaScriptErrors) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  std::ofstream(dir / "short.yaml") << kShortMission;
+  const int rc = run_cli("", "montecarlo --quiet --runs 3 --threads 2 --scenario " +
+                                 (dir / "short.yaml").string() + " --out " + (dir / "mc").string(),
+                         dir / "mc.log");
+  // 30 s flights leave the missions incomplete, which montecarlo counts as failed runs (4).
+  EXPECT_TRUE(rc == 0 || rc == 4) << rc << "\n" << slurp(dir / "mc.log");
+  ASSERT_TRUE(fs::exists(dir / "mc" / "report.html")) << slurp(dir / "mc.log");
+  // The rates chart and eight histograms.
+  EXPECT_EQ(browser_status(dir / "mc" / "report.html", dir), "ok: 9 plots rendered");
+  fs::remove_all(dir);
 }
 
 TEST(RunWithoutPlotly, OtherOutputsAreWrittenWithOneWarningAndNoReport) {

@@ -9,6 +9,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <string>
 
 #include "core/error.hpp"
@@ -243,6 +244,68 @@ TEST(ReportHtml, DefaultMissionSizedReportStaysSmallBesideTheBundle) {
   const std::string html = mission_report_html(f.input(), kFakePlotly);
   EXPECT_LT(html.size(), 1'000'000u);
   EXPECT_EQ(data_block(html)["times"].size(), 501u);
+}
+
+// summary.json and runs.json shaped as `ridgeline montecarlo` writes them: three runs of two
+// UAVs, the second run without a threat met (its threat distance null) and failed.
+std::pair<nlohmann::json, nlohmann::json> monte_carlo_files() {
+  nlohmann::json runs = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r) {
+    nlohmann::json run = {{"run", r},
+                          {"min_separation_m", 30.0 + r},
+                          {"min_threat_distance_m", r == 1 ? nlohmann::json() : nlohmann::json(40.0)},
+                          {"avoidance_success_rate", 1.0},
+                          {"sim_time_s", 200.0}};
+    for (int u = 0; u < 2; ++u)
+      run["uavs"].push_back({{"name", "u" + std::to_string(u)},
+                             {"path_length_m", 1000.0 + 100.0 * r + u},
+                             {"tracking_rmse_m", 0.5},
+                             {"min_terrain_clearance_m", 21.0},
+                             {"replans", 3}});
+    runs.push_back(run);
+  }
+  const nlohmann::json summary = {
+      {"scenario", "mc<b>"},
+      {"counts", {{"safe_runs", 2}, {"complete_missions", 3}}},
+      {"rates", {{"safe", {{"successes", 2}, {"trials", 3}, {"value", 2.0 / 3.0}, {"wilson95", {0.2, 0.94}}}}}},
+      {"metrics", {{"path_length_m", {{"count", 6}, {"min", 1000.0}, {"median", 1100.0}, {"mean", 1100.0}, {"p90", 1200.0}, {"max", 1201.0}}}}},
+      {"failed_runs", {{{"run", 1}, {"seed", 300002}, {"reasons", {"terrain collision"}},
+                        {"replay", "ridgeline run --variation 300002"}}}}};
+  return {summary, runs};
+}
+
+TEST(MonteCarloReport, DistributionsHoldAValuePerRunOrPerUavAndRunWithoutNulls) {
+  const auto [summary, runs] = monte_carlo_files();
+  const nlohmann::json d = montecarlo_report_data(summary, runs);
+  EXPECT_EQ(d["title"], "mc<b>");
+  EXPECT_EQ(d["runs"], 3);
+  std::map<std::string, nlohmann::json> by_name;
+  for (const nlohmann::json& series : d["distributions"]) by_name[series["name"]] = series;
+  ASSERT_EQ(by_name.size(), 8u);
+  EXPECT_EQ(by_name["min_separation_m"]["values"], nlohmann::json({30.0, 31.0, 32.0}));
+  EXPECT_EQ(by_name["min_threat_distance_m"]["values"].size(), 2u);  // run 1's null left out
+  EXPECT_EQ(by_name["path_length_m"]["scope"], "uav");
+  EXPECT_EQ(by_name["path_length_m"]["values"],
+            nlohmann::json({1000.0, 1001.0, 1100.0, 1101.0, 1200.0, 1201.0}));
+  EXPECT_EQ(by_name["replans"]["values"].size(), 6u);
+}
+
+TEST(MonteCarloReport, PageInlinesTheBundleAndListsFailedRunsWithTheirReplay) {
+  const auto [summary, runs] = monte_carlo_files();
+  const std::string html = montecarlo_report_html(summary, runs, kFakePlotly);
+  EXPECT_EQ(count(html, "BUNDLE-MARKER-7f3a"), 1u);
+  EXPECT_EQ(data_block(html), montecarlo_report_data(summary, runs));
+  EXPECT_NE(html.find("<code>ridgeline run --variation 300002</code>"), std::string::npos);
+  EXPECT_NE(html.find("<td>terrain collision</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>path_length_m</td><td>6</td><td>1000</td><td>1100</td>"),
+            std::string::npos);
+  EXPECT_NE(html.find("Ridgeline Monte Carlo: mc&lt;b&gt;"), std::string::npos);
+  EXPECT_EQ(html.find("{{"), std::string::npos);
+}
+
+TEST(MonteCarloReport, FilesOfTheWrongShapeAreAnError) {
+  EXPECT_THROW(montecarlo_report_data(nlohmann::json::array(), nlohmann::json::array()), InputError);
+  EXPECT_THROW(montecarlo_report_data(nlohmann::json::object(), nlohmann::json::object()), InputError);
 }
 
 TEST(PlotlyBundle, MissingFileIsAnErrorNamingItAndHowToInstallIt) {
