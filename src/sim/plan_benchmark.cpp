@@ -48,6 +48,7 @@ nlohmann::json PlanScalingRow::to_json() const {
                         {"time_parametrization", stage_s[3]},
                         {"validation", stage_s[4]}}}};
   if (!message.empty()) j["message"] = message;
+  if (!optimizer_message.empty()) j["optimizer_message"] = optimizer_message;
   return j;
 }
 
@@ -92,8 +93,8 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
   const planning::GlobalPlan& plan = run.plan;
   row.status = std::string(planning::to_string(plan.status));
   row.path_source = std::string(planning::to_string(plan.path_source));
-  row.message = plan.status == planning::GlobalPlanStatus::kPlanned ? plan.optimizer_message
-                                                                      : plan.message;
+  row.message = plan.status == planning::GlobalPlanStatus::kPlanned ? "" : plan.message;
+  row.optimizer_message = plan.optimizer_message;
   row.optimizer_s = plan.optimization_time_s;
   if (plan.optimization) {
     const planning::TrajectoryResult& o = *plan.optimization;

@@ -55,7 +55,8 @@ struct PlanScalingRow {
   std::string status;              ///< GlobalPlanStatus text
   std::string path_source;         ///< PathSource text
   std::string optimizer_status;    ///< TrajectoryStatus text ("" when stage 3 did not run)
-  std::string message;             ///< the plan's or the optimizer's reason when not optimized
+  std::string message;             ///< why the plan failed (empty when planned)
+  std::string optimizer_message;   ///< why the optimized waypoints were not flown (or "")
   double objective = 0.0;          ///< J of eq. 24 at the optimizer's result (0 on failure)
   double initial_objective = 0.0;  ///< J at the initial paths on the same grid
   double min_clearance_m = 0.0;    ///< dense validation of the flown references

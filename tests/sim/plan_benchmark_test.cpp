@@ -61,7 +61,7 @@ TEST(PlanBenchmark, ReportsOneRowPerSizeWithTheSizeItPlannedAndHowItEnded) {
       EXPECT_LT(row.objective, row.initial_objective);
     } else {
       EXPECT_EQ(row.path_source, "initial paths (optimizer failed)");
-      EXPECT_FALSE(row.message.empty());
+      EXPECT_FALSE(row.optimizer_message.empty());
     }
     // Dense validation of what flies (the same floors as the problem's).
     EXPECT_GE(row.min_clearance_m, 20.0);
