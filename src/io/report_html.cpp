@@ -1,5 +1,7 @@
 #include "io/report_html.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -7,9 +9,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
-#include <sstream>
-
-#include <fmt/format.h>
+#include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -36,12 +38,23 @@ std::string escape_html(std::string_view text) {
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -115,7 +128,8 @@ std::string metrics_tables(const nlohmann::json& metrics) {
   html += "</tr>\n";
   for (const nlohmann::json& u : uavs) {
     html += "<tr>";
-    for (const std::string& c : columns) html += "<td>" + cell(u.value(c, nlohmann::json())) + "</td>";
+    for (const std::string& c : columns)
+      html += "<td>" + cell(u.value(c, nlohmann::json())) + "</td>";
     html += "</tr>\n";
   }
   html += "</table>\n<table id=\"metrics-mission\">\n<tr><th>metric</th><th>value</th></tr>\n";
@@ -164,15 +178,16 @@ std::string fill_template(std::string_view tmpl,
 
 nlohmann::json mission_report_data(const MissionReportInput& input, const ReportOptions& options) {
   if (!(options.sample_period_s > 0.0) || !std::isfinite(options.sample_period_s))
-    throw InputError("report.sample_period_s",
-                     fmt::format("{} must be a positive number of seconds", options.sample_period_s));
+    throw InputError(
+        "report.sample_period_s",
+        fmt::format("{} must be a positive number of seconds", options.sample_period_s));
   if (options.terrain_grid_points < 2 || options.terrain_grid_points > 1000)
     throw InputError("report.terrain_grid_points",
                      fmt::format("{} must be in [2, 1000]", options.terrain_grid_points));
   if (!(options.error_sample_spacing_m > 0.0) || !std::isfinite(options.error_sample_spacing_m))
-    throw InputError("report.error_sample_spacing_m",
-                     fmt::format("{} must be a positive number of metres",
-                                 options.error_sample_spacing_m));
+    throw InputError(
+        "report.error_sample_spacing_m",
+        fmt::format("{} must be a positive number of metres", options.error_sample_spacing_m));
   const sim::Scenario& s = input.scenario;
 
   // Rows per UAV in time order.
@@ -187,16 +202,16 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
     t_end = std::max(t_end, r.t_s);
   }
   for (auto& list : rows)
-    std::stable_sort(list.begin(), list.end(),
-                     [](const sim::TrajectoryRow* a, const sim::TrajectoryRow* b) {
-                       return a->t_s < b->t_s;
-                     });
+    std::stable_sort(
+        list.begin(), list.end(),
+        [](const sim::TrajectoryRow* a, const sim::TrajectoryRow* b) { return a->t_s < b->t_s; });
 
   // The slider's times: every sample period, and the last row's time so the end is shown.
   std::vector<double> times;
   if (!input.trajectories.empty()) {
     const auto n = static_cast<long long>(std::floor(t_end / options.sample_period_s + 1e-9));
-    for (long long k = 0; k <= n; ++k) times.push_back(static_cast<double>(k) * options.sample_period_s);
+    for (long long k = 0; k <= n; ++k)
+      times.push_back(static_cast<double>(k) * options.sample_period_s);
     if (times.back() < t_end - 1e-9) times.push_back(t_end);
   }
 
@@ -229,8 +244,12 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
     }
     uavs.push_back({{"name", s.uavs[i].name},
                     {"start_m", point(s.uavs[i].start_position_m)},
-                    {"x", columns[0]}, {"y", columns[1]}, {"z", columns[2]},
-                    {"ref_x", columns[3]}, {"ref_y", columns[4]}, {"ref_z", columns[5]},
+                    {"x", columns[0]},
+                    {"y", columns[1]},
+                    {"z", columns[2]},
+                    {"ref_x", columns[3]},
+                    {"ref_y", columns[4]},
+                    {"ref_z", columns[5]},
                     {"error_by_distance", {{"distance_m", distance}, {"error_m", error}}}});
   }
 
@@ -259,19 +278,22 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
                        {"inspection_radius_m", t.inspection_radius_m}});
   nlohmann::json threats = nlohmann::json::array();
   for (const world::Threat& th : s.threats)
-    threats.push_back({{"name", th.name},
-                       {"centre_m", point(th.centre_m)},
-                       {"velocity_m_s", {th.velocity_m_s.x(), th.velocity_m_s.y(), th.velocity_m_s.z()}},
-                       {"radius_m", th.radius_m},
-                       {"appear_s", th.appear_s},
-                       {"vanish_s", th.vanish_s}});
+    threats.push_back(
+        {{"name", th.name},
+         {"centre_m", point(th.centre_m)},
+         {"velocity_m_s", {th.velocity_m_s.x(), th.velocity_m_s.y(), th.velocity_m_s.z()}},
+         {"radius_m", th.radius_m},
+         {"appear_s", th.appear_s},
+         {"vanish_s", th.vanish_s}});
 
   nlohmann::json time_json = nlohmann::json::array();
   for (const double t : times) time_json.push_back(rounded(t, 0.01));
   return {{"title", s.name},
           {"area",
-           {{"x_min_m", s.area.x_min_m}, {"x_max_m", s.area.x_max_m},
-            {"y_min_m", s.area.y_min_m}, {"y_max_m", s.area.y_max_m}}},
+           {{"x_min_m", s.area.x_min_m},
+            {"x_max_m", s.area.x_max_m},
+            {"y_min_m", s.area.y_min_m},
+            {"y_max_m", s.area.y_max_m}}},
           {"terrain", {{"x", gx}, {"y", gy}, {"z", gz}}},
           {"times", time_json},
           {"uavs", uavs},
@@ -281,16 +303,16 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
 }
 
 std::string mission_report_html(const MissionReportInput& input, std::string_view plotly_js,
-                                 const ReportOptions& options) {
+                                const ReportOptions& options) {
   const nlohmann::json data = mission_report_data(input, options);
   const std::string title = escape_html(input.scenario.name);
   const std::string tables = metrics_tables(data.at("metrics"));
   const std::string js = script_safe_js(plotly_js);
   const std::string json = script_safe_json(data);
   return fill_template(kReportTemplateHtml, {{"{{TITLE}}", title},
-                                              {"{{PLOTLY_JS}}", js},
-                                              {"{{METRICS_TABLES}}", tables},
-                                              {"{{REPORT_DATA}}", json}});
+                                             {"{{PLOTLY_JS}}", js},
+                                             {"{{METRICS_TABLES}}", tables},
+                                             {"{{REPORT_DATA}}", json}});
 }
 
 nlohmann::json montecarlo_report_data(const nlohmann::json& summary, const nlohmann::json& runs) {
@@ -325,8 +347,10 @@ nlohmann::json montecarlo_report_data(const nlohmann::json& summary, const nlohm
         for (const nlohmann::json& uav : *u) add(uav);
       }
     }
-    distributions.push_back(
-        {{"name", series.name}, {"scope", series.scope}, {"unit", series.unit}, {"values", values}});
+    distributions.push_back({{"name", series.name},
+                             {"scope", series.scope},
+                             {"unit", series.unit},
+                             {"values", values}});
   }
   return {{"title", summary.value("scenario", std::string("unnamed"))},
           {"runs", runs.size()},
@@ -349,11 +373,13 @@ std::string montecarlo_tables(const nlohmann::json& summary) {
   html += "</tr>\n";
   for (const auto& [key, value] : metrics.items()) {
     html += "<tr><td>" + escape_html(key) + "</td>";
-    for (const char* stat : stats) html += "<td>" + cell(value.value(stat, nlohmann::json())) + "</td>";
+    for (const char* stat : stats)
+      html += "<td>" + cell(value.value(stat, nlohmann::json())) + "</td>";
     html += "</tr>\n";
   }
-  html += "</table>\n<table id=\"mc-failed\">\n<tr><th>run</th><th>seed</th><th>reasons</th>"
-          "<th>replay</th></tr>\n";
+  html +=
+      "</table>\n<table id=\"mc-failed\">\n<tr><th>run</th><th>seed</th><th>reasons</th>"
+      "<th>replay</th></tr>\n";
   const nlohmann::json failed = summary.value("failed_runs", nlohmann::json::array());
   for (const nlohmann::json& f : failed)
     html += "<tr><td>" + cell(f.value("run", nlohmann::json())) + "</td><td>" +
@@ -374,9 +400,9 @@ std::string montecarlo_report_html(const nlohmann::json& summary, const nlohmann
   const std::string js = script_safe_js(plotly_js);
   const std::string json = script_safe_json(data);
   return fill_template(kMonteCarloTemplateHtml, {{"{{TITLE}}", title},
-                                                  {"{{PLOTLY_JS}}", js},
-                                                  {"{{METRICS_TABLES}}", tables},
-                                                  {"{{REPORT_DATA}}", json}});
+                                                 {"{{PLOTLY_JS}}", js},
+                                                 {"{{METRICS_TABLES}}", tables},
+                                                 {"{{REPORT_DATA}}", json}});
 }
 
 std::filesystem::path plotly_js_path() {

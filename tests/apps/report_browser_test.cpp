@@ -84,7 +84,8 @@ std::string browser_status(const fs::path& page, const fs::path& work) {
   const std::string cmd = "timeout 120 " + chromium() +
                           " --headless --no-sandbox --disable-gpu --use-angle=swiftshader"
                           " --enable-unsafe-swiftshader --no-first-run --disable-extensions"
-                          " --user-data-dir=" + (work / "profile").string() +
+                          " --user-data-dir=" +
+                          (work / "profile").string() +
                           " --virtual-time-budget=30000 --dump-dom file://" +
                           fs::absolute(page).string() + " >" + dom.string() + " 2>" + log.string();
   const int rc = shell(cmd);
@@ -108,8 +109,9 @@ class ReportInBrowser : public ::testing::Test {
     fs::remove_all(*dir_);
     fs::create_directories(*dir_);
     std::ofstream(*dir_ / "short.yaml") << kShortMission;
-    run_rc_ = run_cli("", "run --quiet --scenario " + (*dir_ / "short.yaml").string() +
-                              " --out " + (*dir_ / "out").string(),
+    run_rc_ = run_cli("",
+                      "run --quiet --scenario " + (*dir_ / "short.yaml").string() + " --out " +
+                          (*dir_ / "out").string(),
                       *dir_ / "run.log");
   }
   static void TearDownTestSuite() {
@@ -131,7 +133,7 @@ TEST_F(ReportInBrowser, RunWritesOneSelfContainedReport) {
   EXPECT_GT(html.size(), 3'000'000u);
   EXPECT_LT(html.size(), 8'000'000u);
   EXPECT_NE(html.find("* plotly.js v"), std::string::npos);  // the bundle's licence header
-  EXPECT_EQ(html.find("<script src="), std::string::npos);     // nothing fetched: works offline
+  EXPECT_EQ(html.find("<script src="), std::string::npos);   // nothing fetched: works offline
   EXPECT_NE(html.find("\"name\":\"uav1\""), std::string::npos);
   EXPECT_NE(html.find("\"name\":\"uav2\""), std::string::npos);
   EXPECT_NE(html.find("\"name\":\"t1\""), std::string::npos);
@@ -160,8 +162,9 @@ TEST_F(ReportInBrowser, AJavaScriptErrorInThePageIsCaught) {
 TEST(MonteCarloReportInBrowser, RatesAndEveryDistributionRenderWithoutJavaScriptErrors) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   std::ofstream(dir / "short.yaml") << kShortMission;
-  const int rc = run_cli("", "montecarlo --quiet --runs 3 --threads 2 --scenario " +
-                                 (dir / "short.yaml").string() + " --out " + (dir / "mc").string(),
+  const int rc = run_cli("",
+                         "montecarlo --quiet --runs 3 --threads 2 --scenario " +
+                             (dir / "short.yaml").string() + " --out " + (dir / "mc").string(),
                          dir / "mc.log");
   // 30 s flights leave the missions incomplete, which montecarlo counts as failed runs (4).
   EXPECT_TRUE(rc == 0 || rc == 4) << rc << "\n" << slurp(dir / "mc.log");
@@ -178,10 +181,10 @@ TEST(RunWithoutPlotly, OtherOutputsAreWrittenWithOneWarningAndNoReport) {
   fs::create_directories(out);
   std::ofstream(out / "report.html") << "a report of an earlier run";
   const fs::path missing = dir / "no-such-folder" / "plotly.min.js";
-  const int rc = run_cli("RIDGELINE_PLOTLY_JS=" + missing.string(),
-                         "run --quiet --scenario " + (dir / "short.yaml").string() + " --out " +
-                             out.string(),
-                         dir / "run.log");
+  const int rc =
+      run_cli("RIDGELINE_PLOTLY_JS=" + missing.string(),
+              "run --quiet --scenario " + (dir / "short.yaml").string() + " --out " + out.string(),
+              dir / "run.log");
   const std::string log = slurp(dir / "run.log");
   EXPECT_EQ(rc, 0) << log;
   for (const char* file : {"metrics.json", "trajectories.csv", "plan.json", "summary.json"})

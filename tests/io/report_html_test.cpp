@@ -178,8 +178,7 @@ nlohmann::json data_block(const std::string& html) {
 
 std::size_t count(const std::string& text, const std::string& what) {
   std::size_t n = 0;
-  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1))
-    ++n;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
   return n;
 }
 
@@ -188,7 +187,8 @@ TEST(ReportHtml, InlinesTheBundleTheDataAndTheMetricsTables) {
   const std::string html = mission_report_html(f.input(), kFakePlotly);
   EXPECT_EQ(count(html, "BUNDLE-MARKER-7f3a"), 1u);
   EXPECT_EQ(data_block(html), mission_report_data(f.input()));
-  for (const char* placeholder : {"{{TITLE}}", "{{PLOTLY_JS}}", "{{METRICS_TABLES}}", "{{REPORT_DATA}}"})
+  for (const char* placeholder :
+       {"{{TITLE}}", "{{PLOTLY_JS}}", "{{METRICS_TABLES}}", "{{REPORT_DATA}}"})
     EXPECT_EQ(html.find(placeholder), std::string::npos) << placeholder;
   // The six plots the page draws, and nothing loaded from elsewhere (it works offline).
   for (const char* id : {"plot-3d", "plot-top", "plot-length", "plot-mse", "plot-error",
@@ -251,11 +251,12 @@ TEST(ReportHtml, DefaultMissionSizedReportStaysSmallBesideTheBundle) {
 std::pair<nlohmann::json, nlohmann::json> monte_carlo_files() {
   nlohmann::json runs = nlohmann::json::array();
   for (int r = 0; r < 3; ++r) {
-    nlohmann::json run = {{"run", r},
-                          {"min_separation_m", 30.0 + r},
-                          {"min_threat_distance_m", r == 1 ? nlohmann::json() : nlohmann::json(40.0)},
-                          {"avoidance_success_rate", 1.0},
-                          {"sim_time_s", 200.0}};
+    nlohmann::json run = {
+        {"run", r},
+        {"min_separation_m", 30.0 + r},
+        {"min_threat_distance_m", r == 1 ? nlohmann::json() : nlohmann::json(40.0)},
+        {"avoidance_success_rate", 1.0},
+        {"sim_time_s", 200.0}};
     for (int u = 0; u < 2; ++u)
       run["uavs"].push_back({{"name", "u" + std::to_string(u)},
                              {"path_length_m", 1000.0 + 100.0 * r + u},
@@ -267,10 +268,22 @@ std::pair<nlohmann::json, nlohmann::json> monte_carlo_files() {
   const nlohmann::json summary = {
       {"scenario", "mc<b>"},
       {"counts", {{"safe_runs", 2}, {"complete_missions", 3}}},
-      {"rates", {{"safe", {{"successes", 2}, {"trials", 3}, {"value", 2.0 / 3.0}, {"wilson95", {0.2, 0.94}}}}}},
-      {"metrics", {{"path_length_m", {{"count", 6}, {"min", 1000.0}, {"median", 1100.0}, {"mean", 1100.0}, {"p90", 1200.0}, {"max", 1201.0}}}}},
-      {"failed_runs", {{{"run", 1}, {"seed", 300002}, {"reasons", {"terrain collision"}},
-                        {"replay", "ridgeline run --variation 300002"}}}}};
+      {"rates",
+       {{"safe",
+         {{"successes", 2}, {"trials", 3}, {"value", 2.0 / 3.0}, {"wilson95", {0.2, 0.94}}}}}},
+      {"metrics",
+       {{"path_length_m",
+         {{"count", 6},
+          {"min", 1000.0},
+          {"median", 1100.0},
+          {"mean", 1100.0},
+          {"p90", 1200.0},
+          {"max", 1201.0}}}}},
+      {"failed_runs",
+       {{{"run", 1},
+         {"seed", 300002},
+         {"reasons", {"terrain collision"}},
+         {"replay", "ridgeline run --variation 300002"}}}}};
   return {summary, runs};
 }
 
@@ -304,8 +317,10 @@ TEST(MonteCarloReport, PageInlinesTheBundleAndListsFailedRunsWithTheirReplay) {
 }
 
 TEST(MonteCarloReport, FilesOfTheWrongShapeAreAnError) {
-  EXPECT_THROW(montecarlo_report_data(nlohmann::json::array(), nlohmann::json::array()), InputError);
-  EXPECT_THROW(montecarlo_report_data(nlohmann::json::object(), nlohmann::json::object()), InputError);
+  EXPECT_THROW(montecarlo_report_data(nlohmann::json::array(), nlohmann::json::array()),
+               InputError);
+  EXPECT_THROW(montecarlo_report_data(nlohmann::json::object(), nlohmann::json::object()),
+               InputError);
 }
 
 TEST(PlotlyBundle, MissingFileIsAnErrorNamingItAndHowToInstallIt) {
@@ -344,8 +359,8 @@ TEST(PlotlyBundle, EnvironmentVariableOverridesTheInstalledPath) {
   ASSERT_EQ(::setenv(kPlotlyJsEnvVar, "/somewhere/plotly.min.js", 1), 0);
   EXPECT_EQ(plotly_js_path(), std::filesystem::path("/somewhere/plotly.min.js"));
   ASSERT_EQ(::setenv(kPlotlyJsEnvVar, "", 1), 0);  // empty counts as unset
-  const std::filesystem::path installed =
-      std::filesystem::path(RIDGELINE_SOURCE_DIR) / "web/node_modules/plotly.js-dist-min/plotly.min.js";
+  const std::filesystem::path installed = std::filesystem::path(RIDGELINE_SOURCE_DIR) /
+                                          "web/node_modules/plotly.js-dist-min/plotly.min.js";
   EXPECT_EQ(plotly_js_path(), installed);
   ASSERT_EQ(::unsetenv(kPlotlyJsEnvVar), 0);
   EXPECT_EQ(plotly_js_path(), installed);
