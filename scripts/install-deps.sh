@@ -14,6 +14,7 @@ packages=(
   nlohmann-json3-dev       # JSON outputs
   libcli11-dev             # command line
   libspdlog-dev libfmt-dev # logging, formatting
+  cyclonedds-dev cyclonedds-tools  # DDS transport between processes (library; idlc, ddsperf)
   libgtest-dev libgmock-dev libbenchmark-dev
 )
 # With --test (make test), also what only the tests use.

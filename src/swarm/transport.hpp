@@ -17,6 +17,7 @@ struct TransportStats {
   std::uint64_t sent = 0;       ///< copies addressed to receivers (broadcast fan-out)
   std::uint64_t dropped = 0;    ///< copies lost on the link
   std::uint64_t delivered = 0;  ///< copies handed to receivers
+  std::uint64_t rejected = 0;   ///< received copies that failed check_message (DDS transport)
 };
 
 class Transport {

@@ -1,0 +1,88 @@
+// The swarm's Transport over DDS (issue 7, part 1): the same interface as the in-process
+// transport, so an Agent runs unchanged in its own process. One DdsTransport belongs to one
+// participant (a UAV, id 0..num_uavs−1, or the ground station, id num_uavs).
+//
+// Topics (ROS 2 naming: topic /ridgeline/x is DDS topic rt/ridgeline/x; type ridgeline/msg/X is
+// DDS type ridgeline::msg::dds_::X_) and QoS (dds_participant.hpp):
+//   rt/ridgeline/predicted_trajectory  PredictedTrajectory_  best effort, keep last 1 per UAV
+//   rt/ridgeline/threat_report         ThreatReport_         reliable, keep last 16
+//   rt/ridgeline/state                 State_                best effort, keep last 1 per UAV
+//   rt/ridgeline/reference_plan        ReferencePlan_        reliable, transient local
+//
+// receive() takes what DDS has delivered, checks every message with swarm::check_message
+// (rejected ones are counted in stats().rejected and never handed on), and stamps the
+// envelope with the receiver's now_s. The sender of an envelope is the UAV the message names
+// (uav / reporter); a plan's sender is the ground station (num_uavs).
+//
+// An optional emulated link (LinkModel: extra latency, jitter, loss) is applied on reception,
+// in the receiver's mission time, to the UAV-to-UAV messages (predictions, threat reports,
+// states), for fault tests in lock-step, where wall-clock latency means nothing. Plans are
+// exempt: they come over the ground link, reliable.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <queue>
+#include <string>
+#include <vector>
+
+#include "core/random.hpp"
+#include "swarm/transport.hpp"
+#include "transport_dds/dds_participant.hpp"
+
+namespace ridgeline::transport_dds {
+
+struct DdsTransportOptions {
+  int participant_id = 0;  ///< this node: a UAV id, or num_uavs for the ground station
+  int num_uavs = 1;
+  swarm::LinkModel emulated_link;  ///< zero: DDS's own link only
+  std::uint64_t seed = 1;          ///< of the emulated link's loss and jitter
+  std::size_t max_points = 1000;   ///< longest accepted prediction
+};
+
+class DdsTransport : public swarm::Transport {
+ public:
+  /// Throws InputError for an id outside 0..num_uavs or an invalid link model.
+  DdsTransport(std::shared_ptr<DdsParticipant> participant, const DdsTransportOptions& options);
+  ~DdsTransport() override;
+
+  /// Writes `message` (sender must be this transport's participant_id; now_s is unused: the
+  /// message carries its own stamp).
+  void publish(int sender, double now_s, const swarm::Message& message) override;
+  /// Delivers to `receiver` (must be this transport's participant_id) what has arrived.
+  void receive(int receiver, double now_s, std::vector<swarm::Envelope>& out) override;
+  swarm::TransportStats stats() const override { return stats_; }
+
+  /// "Type: reason" of the latest rejected message (empty if none).
+  const std::string& last_rejection() const { return last_rejection_; }
+  /// Remote readers matched by this transport's writer of plans (ground station's use: are
+  /// the agents there yet?).
+  int matched_plan_readers() const;
+  /// Messages received and kept by the emulated link, not yet due.
+  std::size_t pending_count() const { return pending_.size(); }
+
+ private:
+  struct Impl;
+  struct Pending {
+    swarm::Envelope envelope;
+    std::uint64_t sequence;
+  };
+  struct Later {
+    bool operator()(const Pending& a, const Pending& b) const {
+      if (a.envelope.delivered_s != b.envelope.delivered_s)
+        return a.envelope.delivered_s > b.envelope.delivered_s;
+      return a.sequence > b.sequence;
+    }
+  };
+  void accept(swarm::Message message, int sender, double sent_s, double now_s, bool emulate);
+
+  std::unique_ptr<Impl> impl_;
+  DdsTransportOptions options_;
+  Rng rng_;
+  std::uint64_t next_sequence_ = 0;
+  std::priority_queue<Pending, std::vector<Pending>, Later> pending_;
+  swarm::TransportStats stats_;
+  std::string last_rejection_;
+};
+
+}  // namespace ridgeline::transport_dds
