@@ -126,6 +126,20 @@ Eigen::Matrix2d terrain_hessian(const world::Terrain& terrain, double x, double 
   return H;
 }
 
+// The point of segment [a, b] nearest to q; *interior says whether it lies strictly between
+// the ends (then the squared distance has Hessian 2(I − u uᵀ), else 2I).
+Vec3 nearest_on_segment(const Vec3& q, const Vec3& a, const Vec3& b, bool* interior) {
+  const Vec3 ab = b - a;
+  const double length2 = ab.squaredNorm();
+  *interior = false;
+  if (length2 < 1e-18) return a;
+  const double s = (q - a).dot(ab) / length2;
+  if (s <= 0.0) return a;
+  if (s >= 1.0) return b;
+  *interior = true;
+  return a + s * ab;
+}
+
 struct ElementParams {
   double nominal_m = 1.0;  // ℓ
   double climb_current = 0.0;
@@ -212,12 +226,15 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
     for (int k = 0; k < n; ++k) {
       const int p0 = point(i, k);
       const int p1 = point(i, k + 1);
-      segment_rows_[i][k][0] = static_cast<int>(rows_.size());
+      // A segment between two fixed points has constant speed and climb rows: left out (the
+      // local re-plan's junctions with the old reference are such segments).
+      const bool both_fixed = u.fixed[k] && u.fixed[k + 1];
+      segment_rows_[i][k][0] = both_fixed ? -1 : static_cast<int>(rows_.size());
       Row speed(RowKind::kSpeed, i, -1, k);
       speed.lower = u.min_length_m[k] * u.min_length_m[k];
       speed.upper = u.max_length_m * u.max_length_m;
-      add_row(speed, {3 * p0, 3 * p0 + 1, 3 * p1, 3 * p1 + 1});
-      if (o.enforce_climb_rate) {
+      if (!both_fixed) add_row(speed, {3 * p0, 3 * p0 + 1, 3 * p1, 3 * p1 + 1});
+      if (o.enforce_climb_rate && !both_fixed) {
         Row climb(RowKind::kClimb, i, -1, k);
         climb.lower = -u.max_climb_m;
         climb.upper = u.max_climb_m;
@@ -258,7 +275,7 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
       // or the rows next to it would be infeasible by construction.
       if (u.fixed[k]) margin = std::min(margin, fixed_slack(k));
       if (u.fixed[k + 1]) margin = std::min(margin, fixed_slack(k + 1));
-      const int s = setup_.terrain_samples[i][k];
+      const int s = u.fixed[k] && u.fixed[k + 1] ? 0 : setup_.terrain_samples[i][k];
       for (int j = 1; j <= s; ++j) add_terrain_row(i, k, static_cast<double>(j) / (s + 1), floor_m + margin);
     }
   }
@@ -298,6 +315,24 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
       for (int j = 1; j <= c.interior_samples; ++j) add(static_cast<double>(j) / (c.interior_samples + 1));
   }
 
+  // Constant obstacles (local re-plan: swept threats, other UAVs' references).
+  for (int m = 0; m < static_cast<int>(setup_.obstacles.size()); ++m) {
+    const ObstacleRow& ob = setup_.obstacles[m];
+    const GridUav& u = setup_.uavs[ob.uav];
+    const int k1 = std::min(ob.k + 1, u.segments());
+    if (u.fixed[ob.k] && (ob.tau == 0.0 || u.fixed[k1])) continue;  // constant row
+    Row row(RowKind::kObstacle, ob.uav, m, ob.k, ob.tau);
+    row.lower = ob.min_distance_m * ob.min_distance_m;
+    row.upper = kInf;
+    row.terms[row.num_terms++] = Term{point(ob.uav, ob.k), 1.0 - ob.tau};
+    if (ob.tau > 0.0) row.terms[row.num_terms++] = Term{point(ob.uav, k1), ob.tau};
+    std::vector<int> cols;
+    for (int t = 0; t < row.num_terms; ++t)
+      for (int d = 0; d < 3; ++d) cols.push_back(3 * row.terms[t].point + d);
+    add_row(row, cols);
+    ++obstacle_rows_;
+  }
+
   // Hessian structure: record the element loop's entries once and merge duplicates.
   std::vector<std::pair<int, int>> entries;
   std::vector<double> x0(num_variables_);
@@ -319,6 +354,11 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
 
 TrajectoryNlp::RowKey TrajectoryNlp::row_key(int row) const {
   const Row& r = rows_[static_cast<std::size_t>(row)];
+  if (r.kind == RowKind::kObstacle) {
+    // By what the obstacle is, not by its index in this setup.
+    const ObstacleRow& ob = setup_.obstacles[static_cast<std::size_t>(r.other)];
+    return RowKey{static_cast<int>(r.kind), r.uav, 2 * ob.source + (ob.threat ? 1 : 0), r.k, r.tau};
+  }
   return RowKey{static_cast<int>(r.kind), r.uav, r.other, r.k, r.tau};
 }
 
@@ -379,7 +419,7 @@ void TrajectoryNlp::row_scaling(double* scale) const {
     const Row& row = rows_[r];
     if (row.kind == RowKind::kSpeed) {
       scale[r] = 1.0 / (2.0 * setup_.uavs[row.uav].nominal_length_m);
-    } else if (row.kind == RowKind::kSeparation) {
+    } else if (row.kind == RowKind::kSeparation || row.kind == RowKind::kObstacle) {
       scale[r] = 1.0 / (2.0 * std::sqrt(std::max(row.lower, 1.0)));
     } else {
       scale[r] = 1.0;
@@ -601,6 +641,15 @@ double TrajectoryNlp::row_value(const Row& row, const double* x) const {
                                         x[3 * row.terms[m].point + 2]);
       return r.squaredNorm();
     }
+    case RowKind::kObstacle: {
+      const ObstacleRow& ob = setup_.obstacles[static_cast<std::size_t>(row.other)];
+      Vec3 q = Vec3::Zero();
+      for (int m = 0; m < row.num_terms; ++m)
+        q += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                        x[3 * row.terms[m].point + 2]);
+      bool interior = false;
+      return (q - nearest_on_segment(q, ob.a_m, ob.b_m, &interior)).squaredNorm();
+    }
   }
   return 0.0;
 }
@@ -677,6 +726,18 @@ void TrajectoryNlp::jacobian_values(const double* x, double* values) const {
           for (int d = 0; d < 3; ++d) v[3 * m + d] = 2.0 * row.terms[m].weight * r[d];
         break;
       }
+      case RowKind::kObstacle: {
+        const ObstacleRow& ob = setup_.obstacles[static_cast<std::size_t>(row.other)];
+        Vec3 q = Vec3::Zero();
+        for (int m = 0; m < row.num_terms; ++m)
+          q += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                          x[3 * row.terms[m].point + 2]);
+        bool interior = false;
+        const Vec3 r = q - nearest_on_segment(q, ob.a_m, ob.b_m, &interior);
+        for (int m = 0; m < row.num_terms; ++m)
+          for (int d = 0; d < 3; ++d) v[3 * m + d] = 2.0 * row.terms[m].weight * r[d];
+        break;
+      }
     }
   }
 }
@@ -717,7 +778,7 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       const D dx = b[0] - a[0];
       const D dy = b[1] - a[1];
       const D h2 = dx * dx + dy * dy;
-      f += lambda[r[0]] * h2;  // speed row (the pitch rows are linear)
+      if (r[0] >= 0) f += lambda[r[0]] * h2;  // speed row (the pitch rows are linear)
       if (convex) project_to_psd(f.H);
       for (int m = 0; m < 6; ++m)
         for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
@@ -806,6 +867,31 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
             for (int e = 0; e < 2; ++e)
               if (m != c || e <= d) add_lower(pm + d, pc + e, w * H(d, e));
         }
+    } else if (row.kind == RowKind::kObstacle) {
+      // λ·∇²|q − π(q)|² = 2λ·(w wᵀ ⊗ P), P = I − u uᵀ where π(q) is inside the segment, else
+      // I: positive semidefinite for λ ≥ 0 (P is a projector), dropped when λ < 0 and convex.
+      const ObstacleRow& ob = setup_.obstacles[static_cast<std::size_t>(row.other)];
+      Vec3 qp = Vec3::Zero();
+      for (int m = 0; m < row.num_terms; ++m)
+        qp += row.terms[m].weight * Vec3(x[3 * row.terms[m].point], x[3 * row.terms[m].point + 1],
+                                         x[3 * row.terms[m].point + 2]);
+      bool interior = false;
+      nearest_on_segment(qp, ob.a_m, ob.b_m, &interior);
+      Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
+      if (interior) {
+        const Vec3 axis = (ob.b_m - ob.a_m).normalized();
+        P -= axis * axis.transpose();
+      }
+      const double scale = convex ? std::max(lambda[ri], 0.0) : lambda[ri];
+      for (int m = 0; m < row.num_terms; ++m)
+        for (int c = 0; c <= m; ++c) {
+          const double w = 2.0 * scale * row.terms[m].weight * row.terms[c].weight;
+          const int pm = 3 * row.terms[m].point;
+          const int pc = 3 * row.terms[c].point;
+          for (int d = 0; d < 3; ++d)
+            for (int e = 0; e < 3; ++e)
+              if (m != c || e <= d) add_lower(pm + d, pc + e, w * P(d, e));
+        }
     } else if (row.kind == RowKind::kSeparation) {
       // λ·∇²|r|² = 2λ·(w wᵀ ⊗ I): positive semidefinite for λ ≥ 0, else dropped when convex.
       const double scale = convex ? std::max(lambda[ri], 0.0) : lambda[ri];
@@ -877,6 +963,12 @@ std::string TrajectoryNlp::describe(const Row& row) const {
     case RowKind::kSeparation:
       return fmt::format("separation (eq. 21) of UAVs {} and {} at t = {:.1f} s", name,
                          setup_.uavs[row.other].name, (row.k + row.tau) * dt);
+    case RowKind::kObstacle: {
+      const ObstacleRow& ob = setup_.obstacles[static_cast<std::size_t>(row.other)];
+      return fmt::format("{} {} of UAV {} at grid time {:.1f} s",
+                         ob.threat ? "threat" : "separation from UAV", ob.source, name,
+                         (row.k + row.tau) * dt);
+    }
   }
   return "";
 }

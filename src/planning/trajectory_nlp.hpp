@@ -42,6 +42,25 @@ struct SeparationCandidate {
   double margin_m = 0.0;  ///< added to d_safe + separation_margin_m
 };
 
+/// A constant obstacle of one UAV's point q = (1 − τ)·p_k + τ·p_{k+1}: the segment [a, b] (a
+/// point when a = b) that q must keep min_distance_m from,
+///   |q − π(q)|² ≥ d²,  π(q) the point of [a, b] nearest to q.
+/// The local re-plan (local_replan.hpp) uses it for a moving threat swept over a time interval
+/// (a capsule: the centre's track, d = R + r_safe) and for another UAV's fixed reference at the
+/// row's time (a point, d = d_safe). |q − π(q)|² is C¹ in q (the squared distance to a convex
+/// set), with gradient 2(q − π(q)) and Hessian 2(I − u uᵀ) where π(q) is inside the segment (u
+/// its direction), 2I beyond its ends.
+struct ObstacleRow {
+  int uav = 0;
+  int k = 0;
+  double tau = 0.0;  ///< in [0, 1); τ > 0 needs k < segments
+  Vec3 a_m = Vec3::Zero();
+  Vec3 b_m = Vec3::Zero();
+  double min_distance_m = 0.0;  ///< > 0
+  bool threat = true;           ///< a threat (else another UAV's reference)
+  int source = 0;               ///< the threat's or the other UAV's index (messages, row keys)
+};
+
 struct NlpSetup {
   const world::Terrain* terrain = nullptr;
   std::vector<GridUav> uavs;
@@ -50,6 +69,7 @@ struct NlpSetup {
   std::vector<std::vector<int>> terrain_samples;       ///< per UAV, per segment (interior points)
   std::vector<std::vector<double>> clearance_extra_m;  ///< per UAV, per waypoint: extra margin
   std::vector<SeparationCandidate> candidates;
+  std::vector<ObstacleRow> obstacles;
 };
 
 class TrajectoryNlp {
@@ -62,6 +82,7 @@ class TrajectoryNlp {
   int num_constraints() const { return static_cast<int>(rows_.size()); }
   int jacobian_nonzeros() const { return static_cast<int>(cols_.size()); }
   int separation_rows() const { return separation_rows_; }
+  int obstacle_rows() const { return obstacle_rows_; }
   int max_grid_index() const { return max_index_; }
 
   void bounds(double* x_l, double* x_u, double* g_l, double* g_u) const;
@@ -109,7 +130,16 @@ class TrajectoryNlp {
   RowKey row_key(int row) const;
 
  private:
-  enum class RowKind { kSpeed, kClimb, kPitchUp, kPitchDown, kTurn, kTerrain, kSeparation };
+  enum class RowKind {
+    kSpeed,
+    kClimb,
+    kPitchUp,
+    kPitchDown,
+    kTurn,
+    kTerrain,
+    kSeparation,
+    kObstacle
+  };
   struct Term {
     int point = 0;   ///< global point index
     double weight = 0.0;
@@ -119,14 +149,14 @@ class TrajectoryNlp {
         : kind(kind_in), uav(uav_in), other(other_in), k(k_in), tau(tau_in) {}
     RowKind kind = RowKind::kSpeed;
     int uav = 0;
-    int other = -1;
+    int other = -1;     ///< kSeparation: the other UAV; kObstacle: index into setup.obstacles
     int k = 0;          ///< segment, vertex or grid index
     double tau = 0.0;   ///< fraction along the segment/step
     double lower = 0.0;
     double upper = 0.0;
     int col_begin = 0;  ///< into cols_
     int col_end = 0;
-    Term terms[4];      ///< kTerrain, kSeparation: point combination
+    Term terms[4];  ///< kTerrain, kSeparation, kObstacle: point combination
     int num_terms = 0;
   };
 
@@ -146,6 +176,7 @@ class TrajectoryNlp {
   int num_variables_ = 0;
   int max_index_ = 0;
   int separation_rows_ = 0;
+  int obstacle_rows_ = 0;
   std::vector<Row> rows_;
   std::vector<int> cols_;
 

@@ -1,8 +1,5 @@
 #include "planning/trajectory_optimizer.hpp"
 
-#include <coin/IpIpoptApplication.hpp>
-#include <coin/IpSolveStatistics.hpp>
-#include <coin/IpTNLP.hpp>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -11,6 +8,7 @@
 #include <map>
 #include <tuple>
 
+#include "planning/trajectory_ipopt.hpp"
 #include "planning/trajectory_nlp.hpp"
 
 namespace ridgeline::planning {
@@ -18,6 +16,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using detail::GridUav;
+using detail::Multipliers;
 using detail::NlpSetup;
 using detail::SeparationCandidate;
 using detail::TrajectoryNlp;
@@ -25,117 +24,6 @@ using detail::TrajectoryNlp;
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
-
-// Bound and row multipliers of a solve, to warm-start the next one.
-struct Multipliers {
-  std::vector<double> z_lower;
-  std::vector<double> z_upper;
-  std::vector<double> lambda;
-  bool empty() const { return lambda.empty() && z_lower.empty(); }
-};
-
-// Ipopt adapter around the solver-independent transcription.
-class IpoptAdapter : public Ipopt::TNLP {
- public:
-  IpoptAdapter(const TrajectoryNlp& nlp, std::vector<double> x0, bool exact_hessian,
-               Multipliers warm = {})
-      : nlp_(nlp), x0_(std::move(x0)), x_(x0_), exact_hessian_(exact_hessian), warm_(std::move(warm)) {}
-
-  const std::vector<double>& x() const { return x_; }
-  const Multipliers& multipliers() const { return final_; }
-  Ipopt::SolverReturn status() const { return status_; }
-
-  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac, Ipopt::Index& nnz_h,
-                    IndexStyleEnum& style) override {
-    n = nlp_.num_variables();
-    m = nlp_.num_constraints();
-    nnz_jac = nlp_.jacobian_nonzeros();
-    nnz_h = exact_hessian_ ? nlp_.hessian_nonzeros() : 0;
-    style = C_STYLE;
-    return true;
-  }
-  bool get_bounds_info(Ipopt::Index, Ipopt::Number* x_l, Ipopt::Number* x_u, Ipopt::Index,
-                       Ipopt::Number* g_l, Ipopt::Number* g_u) override {
-    nlp_.bounds(x_l, x_u, g_l, g_u);
-    return true;
-  }
-  bool get_starting_point(Ipopt::Index n, bool init_x, Ipopt::Number* x, bool init_z,
-                          Ipopt::Number* z_l, Ipopt::Number* z_u, Ipopt::Index m, bool init_lambda,
-                          Ipopt::Number* lambda) override {
-    if (!init_x) return false;
-    if ((init_z || init_lambda) &&
-        (static_cast<Ipopt::Index>(warm_.z_lower.size()) != n ||
-         static_cast<Ipopt::Index>(warm_.lambda.size()) != m))
-      return false;
-    std::copy(x0_.begin(), x0_.begin() + n, x);
-    if (init_z) {
-      std::copy(warm_.z_lower.begin(), warm_.z_lower.end(), z_l);
-      std::copy(warm_.z_upper.begin(), warm_.z_upper.end(), z_u);
-    }
-    if (init_lambda) std::copy(warm_.lambda.begin(), warm_.lambda.end(), lambda);
-    return true;
-  }
-  bool get_scaling_parameters(Ipopt::Number& obj_scaling, bool& use_x_scaling, Ipopt::Index,
-                              Ipopt::Number*, bool& use_g_scaling, Ipopt::Index,
-                              Ipopt::Number* g_scaling) override {
-    obj_scaling = 1.0;
-    use_x_scaling = false;
-    use_g_scaling = true;
-    nlp_.row_scaling(g_scaling);
-    return true;
-  }
-  bool eval_f(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number& f) override {
-    f = nlp_.objective(x);
-    return std::isfinite(f);
-  }
-  bool eval_grad_f(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number* g) override {
-    nlp_.gradient(x, g);
-    return true;
-  }
-  bool eval_g(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Index, Ipopt::Number* g) override {
-    nlp_.constraints(x, g);
-    return true;
-  }
-  bool eval_jac_g(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Index, Ipopt::Index,
-                  Ipopt::Index* rows, Ipopt::Index* cols, Ipopt::Number* values) override {
-    if (values == nullptr) {
-      nlp_.jacobian_structure(rows, cols);
-    } else {
-      nlp_.jacobian_values(x, values);
-    }
-    return true;
-  }
-  bool eval_h(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number sigma, Ipopt::Index,
-              const Ipopt::Number* lambda, bool, Ipopt::Index, Ipopt::Index* rows,
-              Ipopt::Index* cols, Ipopt::Number* values) override {
-    if (!exact_hessian_) return false;
-    if (values == nullptr) {
-      nlp_.hessian_structure(rows, cols);
-    } else {
-      nlp_.hessian_values(x, sigma, lambda, values);
-    }
-    return true;
-  }
-  void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x,
-                         const Ipopt::Number* z_l, const Ipopt::Number* z_u, Ipopt::Index m,
-                         const Ipopt::Number*, const Ipopt::Number* lambda, Ipopt::Number,
-                         const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
-    status_ = status;
-    x_.assign(x, x + n);
-    final_.z_lower.assign(z_l, z_l + n);
-    final_.z_upper.assign(z_u, z_u + n);
-    final_.lambda.assign(lambda, lambda + m);
-  }
-
- private:
-  const TrajectoryNlp& nlp_;
-  std::vector<double> x0_;
-  std::vector<double> x_;
-  Ipopt::SolverReturn status_ = Ipopt::INTERNAL_ERROR;
-  bool exact_hessian_ = true;
-  Multipliers warm_;
-  Multipliers final_;
-};
 
 std::string check_options(const TrajectoryOptimizerOptions& o) {
   auto bad = [](const char* field, const char* why) { return fmt::format("options.{}: {}", field, why); };
@@ -309,17 +197,6 @@ std::vector<TimedPath> timed_paths(const std::vector<GridUav>& grid,
   return out;
 }
 
-TrajectoryStatus status_of(Ipopt::SolverReturn s) {
-  switch (s) {
-    case Ipopt::SUCCESS:
-    case Ipopt::STOP_AT_ACCEPTABLE_POINT: return TrajectoryStatus::kSolved;
-    case Ipopt::LOCAL_INFEASIBILITY: return TrajectoryStatus::kInfeasible;
-    case Ipopt::MAXITER_EXCEEDED: return TrajectoryStatus::kIterationLimit;
-    case Ipopt::CPUTIME_EXCEEDED: return TrajectoryStatus::kTimeLimit;
-    default: return TrajectoryStatus::kSolverError;
-  }
-}
-
 }  // namespace
 
 std::string_view to_string(TrajectoryStatus status) {
@@ -472,49 +349,18 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
                   fmt::format("time budget of {:.1f} s exhausted after {} solve(s)",
                               options.time_budget_s, result.solves));
 
-    Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-    app->Options()->SetIntegerValue("print_level", options.print_level);
-    app->Options()->SetStringValue("sb", "yes");
-    if (!options.exact_hessian) {
-      app->Options()->SetStringValue("hessian_approximation", "limited-memory");
-      app->Options()->SetIntegerValue("limited_memory_max_history", options.lbfgs_history);
-    }
-    app->Options()->SetStringValue("mu_strategy", options.adaptive_barrier ? "adaptive" : "monotone");
-    app->Options()->SetStringValue("nlp_scaling_method", "user-scaling");
-    // MUMPS with the AMD ordering: on these banded KKT systems (a chain of waypoints per UAV,
-    // a few separation rows between chains) it factors faster than the automatic choice; and
-    // no mandatory iterative-refinement step (Ipopt still refines when the residual asks for
-    // it). Together ~30% less time per iteration on 3 × 100, same iterates.
-    app->Options()->SetIntegerValue("mumps_pivot_order", 0);
-    app->Options()->SetIntegerValue("min_refinement_steps", 0);
-    app->Options()->SetNumericValue("tol", options.tolerance);
-    app->Options()->SetNumericValue("constr_viol_tol", options.constraint_tolerance);
-    app->Options()->SetIntegerValue("max_iter", options.max_iterations);
-    app->Options()->SetNumericValue("max_cpu_time", remaining_s);
-    if (!warm.empty()) {
-      app->Options()->SetStringValue("warm_start_init_point", "yes");
-      app->Options()->SetNumericValue("mu_init", options.warm_start_mu);
-      app->Options()->SetNumericValue("warm_start_bound_push", 1e-6);
-      app->Options()->SetNumericValue("warm_start_slack_bound_push", 1e-6);
-      app->Options()->SetNumericValue("warm_start_mult_bound_push", 1e-6);
-    }
-    if (app->Initialize() != Ipopt::Solve_Succeeded)
-      return fail(TrajectoryStatus::kSolverError, "Ipopt failed to initialize");
-    Ipopt::SmartPtr<IpoptAdapter> adapter =
-        new IpoptAdapter(nlp, x0, options.exact_hessian, std::move(warm));
-    const auto t_solve = Clock::now();
-    app->OptimizeTNLP(adapter);
-    result.solve_time_s += seconds_since(t_solve);
+    const detail::IpoptSolve solve =
+        detail::solve_with_ipopt(nlp, std::move(x0), warm, options, remaining_s);
+    result.solve_time_s += solve.solve_time_s;
     ++result.solves;
-    if (Ipopt::SmartPtr<Ipopt::SolveStatistics> stats = app->Statistics(); IsValid(stats))
-      result.ipopt_iterations += stats->IterationCount();
+    result.ipopt_iterations += solve.iterations;
 
-    const std::vector<double>& x = adapter->x();
+    const std::vector<double>& x = solve.x;
     const std::vector<std::vector<Vec3>> waypoints = nlp.unpack(x.data());
     std::vector<TimedPath> paths = timed_paths(grid, waypoints, dt);
     result.validation = validate_plan(terrain, paths, validation);
 
-    const TrajectoryStatus ipopt_status = status_of(adapter->status());
+    const TrajectoryStatus ipopt_status = solve.status;
     if (ipopt_status != TrajectoryStatus::kSolved) {
       std::string where = nlp.worst_rows(x.data(), 3);
       if (!result.validation.passed()) where += "; dense check: " + result.validation.violations.front().description;
@@ -561,7 +407,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       // segment. They can only come from Ipopt's bound relaxation and are reported as such.
     }
     previous = waypoints;
-    previous_bounds = adapter->multipliers();
+    previous_bounds = solve.multipliers;
     previous_lambda.clear();
     for (int r = 0; r < nlp.num_constraints(); ++r)
       previous_lambda[nlp.row_key(r)] = previous_bounds.lambda[static_cast<std::size_t>(r)];

@@ -76,6 +76,16 @@ struct FdFixture {
       setup.candidates.push_back({0, 1, k, 2, 0.0});
       setup.candidates.push_back({1, 2, k, 1, 0.5});
     }
+    // Obstacle rows (the local re-plan's): capsules (swept threats) and a point (another UAV's
+    // reference), at grid points and interior samples.
+    setup.obstacles.push_back(
+        {0, 3, 0.0, Vec3(450.0, 320.0, 150.0), Vec3(500.0, 260.0, 190.0), 40.0, true, 0});
+    setup.obstacles.push_back(
+        {0, 5, 0.4, Vec3(480.0, 320.0, 150.0), Vec3(500.0, 360.0, 160.0), 30.0, true, 0});
+    setup.obstacles.push_back(
+        {1, 2, 0.5, Vec3(470.0, 310.0, 170.0), Vec3(470.0, 310.0, 170.0), 12.0, false, 2});
+    setup.obstacles.push_back(
+        {2, 6, 0.0, Vec3(600.0, 360.0, 160.0), Vec3(660.0, 350.0, 200.0), 25.0, true, 1});
     const detail::TrajectoryNlp nlp(setup);
     x.resize(nlp.num_variables());
     nlp.initial_point(x.data());
@@ -95,6 +105,7 @@ TEST(TrajectoryNlp, GradientMatchesCentralDifferences) {
   FdFixture f;
   const detail::TrajectoryNlp nlp(f.setup);
   ASSERT_GT(nlp.separation_rows(), 0);
+  ASSERT_EQ(nlp.obstacle_rows(), 4);
   std::vector<double> grad(nlp.num_variables());
   nlp.gradient(f.x.data(), grad.data());
   double collision = 0.0;
