@@ -4,13 +4,16 @@
 #include <cpl_error.h>
 #include <cpl_string.h>
 #include <fmt/format.h>
+#include <gdal_alg.h>
 #include <gdal_priv.h>
+#include <gdalwarper.h>
 #include <ogr_spatialref.h>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -268,8 +271,8 @@ world::RasterGrid to_local_frame(const DemRaster& dem) {
   if (dem.is_geographic) {
     throw InputError(dem.path,
                      "DEM CRS is geographic (degrees); placing it in the local metre frame needs "
-                     "a geodetic origin, which is not supported yet. Reproject it to a projected "
-                     "CRS in metres first (e.g. gdalwarp -t_srs EPSG:326NN for UTM zone NN)");
+                     "a geodetic origin: give the scenario a top-level 'origin: {lat_deg, "
+                     "lon_deg, alt_amsl_m}' (degrees are never read as metres)");
   }
   world::RasterGrid grid = dem.grid;
   if (!dem.has_crs) {
@@ -298,6 +301,190 @@ world::RasterGrid to_local_frame(const DemRaster& dem) {
   grid.origin_x_m = 0.5 * grid.cell_x_m;
   grid.origin_y_m = 0.5 * grid.cell_y_m;
   return grid;
+}
+
+namespace {
+
+struct WarpOptionsDeleter {
+  void operator()(GDALWarpOptions* options) const {
+    if (options == nullptr) return;
+    if (options->pTransformerArg != nullptr)
+      GDALDestroyGenImgProjTransformer(options->pTransformerArg);
+    GDALDestroyWarpOptions(options);
+  }
+};
+
+// Removes border rows and columns that hold voids, the edge with the most voids first, until
+// none is left on the border; returns the kept window [r0, r1] x [c0, c1] (row 0 south).
+struct Window {
+  int r0, r1, c0, c1;
+};
+Window trim_void_border(const world::RasterGrid& grid, const std::vector<char>& is_void) {
+  Window w{0, grid.rows - 1, 0, grid.cols - 1};
+  auto void_at = [&](int r, int c) {
+    return is_void[static_cast<std::size_t>(r) * grid.cols + c] != 0;
+  };
+  while (w.r0 <= w.r1 && w.c0 <= w.c1) {
+    int south = 0, north = 0, west = 0, east = 0;
+    for (int c = w.c0; c <= w.c1; ++c) {
+      south += void_at(w.r0, c);
+      north += void_at(w.r1, c);
+    }
+    for (int r = w.r0; r <= w.r1; ++r) {
+      west += void_at(r, w.c0);
+      east += void_at(r, w.c1);
+    }
+    const int worst = std::max({south, north, west, east});
+    if (worst == 0) break;
+    if (worst == south) {
+      ++w.r0;
+    } else if (worst == north) {
+      --w.r1;
+    } else if (worst == west) {
+      ++w.c0;
+    } else {
+      --w.c1;
+    }
+  }
+  return w;
+}
+
+}  // namespace
+
+world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame) {
+  if (!dem.has_crs) {
+    throw InputError(dem.path,
+                     "DEM has no CRS, so it cannot be placed relative to the geodetic origin; "
+                     "give the file its CRS (e.g. gdal_edit.py -a_srs EPSG:NNNN, or a .prj "
+                     "beside an ESRI grid)");
+  }
+  register_gdal();
+  QuietGdalErrors quiet;
+  OGRSpatialReference source_srs;
+  if (source_srs.importFromWkt(dem.crs_wkt.c_str()) != OGRERR_NONE) {
+    throw InputError(dem.path, "GDAL cannot re-read the DEM's CRS: " + last_gdal_error());
+  }
+  OGRSpatialReference local_srs;
+  if (local_srs.SetFromUserInput(frame.proj_definition().c_str()) != OGRERR_NONE) {
+    throw InputError("origin", "GDAL cannot build the local frame's CRS '" +
+                                   frame.proj_definition() + "': " + last_gdal_error());
+  }
+  // Geotransforms are (x = east/longitude, y = north/latitude) whatever the CRS's axis order.
+  source_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  local_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  if (mem == nullptr) throw InputError(dem.path, "GDAL lacks the MEM driver");
+  const world::RasterGrid& in = dem.grid;
+  // The source is the read raster (voids filled, heights in metres) in its own CRS.
+  DatasetPtr source(mem->Create("", in.cols, in.rows, 1, GDT_Float64, nullptr));
+  if (!source) throw InputError(dem.path, "cannot stage the DEM: " + last_gdal_error());
+  write_band(*source, in, dem.path);
+  source->SetSpatialRef(&source_srs);
+
+  char* local_wkt = nullptr;
+  local_srs.exportToWkt(&local_wkt);
+  CPLStringList transformer_options;
+  transformer_options.SetNameValue("DST_SRS", local_wkt != nullptr ? local_wkt : "");
+  CPLFree(local_wkt);
+  void* suggest = GDALCreateGenImgProjTransformer2(GDALDataset::ToHandle(source.get()), nullptr,
+                                                   transformer_options.List());
+  if (suggest == nullptr) {
+    throw InputError(dem.path, "GDAL/PROJ cannot transform the DEM's CRS into the local frame: " +
+                                   last_gdal_error());
+  }
+  std::array<double, 6> gt{};
+  int cols = 0, rows = 0;
+  const CPLErr suggested =
+      GDALSuggestedWarpOutput(GDALDataset::ToHandle(source.get()), GDALGenImgProjTransform, suggest,
+                              gt.data(), &cols, &rows);
+  GDALDestroyGenImgProjTransformer(suggest);
+  if (suggested != CE_None || cols < 1 || rows < 1) {
+    throw InputError(dem.path,
+                     "GDAL cannot place the DEM in the local frame (is the origin on the same "
+                     "side of the globe?): " +
+                         last_gdal_error());
+  }
+
+  DatasetPtr target(mem->Create("", cols, rows, 1, GDT_Float64, nullptr));
+  if (!target) throw InputError(dem.path, "cannot create the warped raster: " + last_gdal_error());
+  target->SetGeoTransform(gt.data());
+  target->SetSpatialRef(&local_srs);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  target->GetRasterBand(1)->SetNoDataValue(nan);
+
+  std::unique_ptr<GDALWarpOptions, WarpOptionsDeleter> options(GDALCreateWarpOptions());
+  options->hSrcDS = GDALDataset::ToHandle(source.get());
+  options->hDstDS = GDALDataset::ToHandle(target.get());
+  options->nBandCount = 1;
+  options->panSrcBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panSrcBands[0] = 1;
+  options->panDstBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panDstBands[0] = 1;
+  options->eResampleAlg = GRA_Bilinear;
+  options->eWorkingDataType = GDT_Float64;
+  options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
+  options->padfDstNoDataReal[0] = nan;
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
+  // Exact transformation of every pixel (no approximating interpolation of the transform).
+  options->pTransformerArg = GDALCreateGenImgProjTransformer2(
+      GDALDataset::ToHandle(source.get()), GDALDataset::ToHandle(target.get()), nullptr);
+  options->pfnTransformer = GDALGenImgProjTransform;
+  if (options->pTransformerArg == nullptr) {
+    throw InputError(dem.path, "GDAL cannot set up the warp: " + last_gdal_error());
+  }
+  GDALWarpOperation warp;
+  if (warp.Initialize(options.get()) != CE_None ||
+      warp.ChunkAndWarpImage(0, 0, cols, rows) != CE_None) {
+    throw InputError(dem.path, "warping the DEM into the local frame failed: " + last_gdal_error());
+  }
+
+  std::vector<double> raw(static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows));
+  if (target->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, cols, rows, raw.data(), cols, rows,
+                                         GDT_Float64, 0, 0, nullptr) != CE_None) {
+    throw InputError(dem.path, "cannot read the warped raster: " + last_gdal_error());
+  }
+  world::RasterGrid full;
+  full.rows = rows;
+  full.cols = cols;
+  full.heights_m.resize(raw.size());
+  std::vector<char> is_void(raw.size(), 0);
+  for (int r = 0; r < rows; ++r) {
+    const std::size_t src = static_cast<std::size_t>(rows - 1 - r) * cols;
+    const std::size_t dst = static_cast<std::size_t>(r) * cols;
+    for (int c = 0; c < cols; ++c) {
+      full.heights_m[dst + c] = raw[src + c];
+      is_void[dst + c] = std::isfinite(raw[src + c]) ? 0 : 1;
+    }
+  }
+  const Window w = trim_void_border(full, is_void);
+  if (w.r0 > w.r1 || w.c0 > w.c1) {
+    throw InputError(dem.path, "no part of the DEM is left after warping it into the local frame");
+  }
+  world::RasterGrid grid;
+  grid.rows = w.r1 - w.r0 + 1;
+  grid.cols = w.c1 - w.c0 + 1;
+  grid.cell_x_m = gt[1];
+  grid.cell_y_m = -gt[5];
+  grid.origin_x_m = gt[0] + (w.c0 + 0.5) * gt[1];
+  grid.origin_y_m = gt[3] + (rows - 1 - w.r0 + 0.5) * gt[5];
+  grid.heights_m.resize(static_cast<std::size_t>(grid.rows) * grid.cols);
+  std::vector<char> inner_void(grid.heights_m.size(), 0);
+  for (int r = 0; r < grid.rows; ++r) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const std::size_t k = static_cast<std::size_t>(r + w.r0) * cols + (c + w.c0);
+      grid.at(r, c) = is_void[k] ? 0.0 : full.heights_m[k];
+      inner_void[static_cast<std::size_t>(r) * grid.cols + c] = is_void[k];
+    }
+  }
+  // Voids inside the kept window (a source footprint with holes) fill from their rim.
+  fill_voids(grid, inner_void);
+  validate_raster_grid(grid, dem.path);
+  return grid;
+}
+
+world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame) {
+  return warp_to_frame(read_dem(path), frame);
 }
 
 world::RasterGrid load_dem_local(const std::filesystem::path& path) {

@@ -3,12 +3,15 @@
 //
 // Two levels:
 // - read_dem: the raw raster in the DEM's OWN coordinates (CRS units, degrees if geographic)
-//   plus its CRS, for a caller that warps it (a later geodetic-origin loader).
-// - load_dem_local: the raster in the local ENU frame, for now the rule "local = DEM projected
-//   coordinates minus the raster's south-west CORNER", i.e. local (0, 0) is the DEM's
-//   south-west corner and the south-west cell's centre sits at (Δx/2, Δy/2). A DEM whose CRS
-//   is geographic is rejected there (it needs a geodetic origin): degrees are never read as
-//   metres.
+//   plus its CRS.
+// - load_dem_in_frame: with a geodetic origin (io/geo_frame.hpp), the DEM in ANY CRS GDAL
+//   knows (EPSG:4326 SRTM, UTM, an ESRI grid with a .prj, ...) warped by GDAL/PROJ into the
+//   origin's local transverse Mercator frame (bilinear resampling); heights stay the DEM's
+//   (above mean sea level).
+// - load_dem_local: without an origin, the rule "local = DEM projected coordinates minus the
+//   raster's south-west CORNER", i.e. local (0, 0) is the DEM's south-west corner and the
+//   south-west cell's centre sits at (Δx/2, Δy/2). A DEM whose CRS is geographic is rejected
+//   there (it needs a geodetic origin): degrees are never read as metres.
 //
 // Grid conventions are those of world/raster_grid.hpp (cell-centre samples, row 0 south).
 #pragma once
@@ -16,6 +19,7 @@
 #include <filesystem>
 #include <string>
 
+#include "io/geo_frame.hpp"
 #include "world/raster_grid.hpp"
 
 namespace ridgeline::io {
@@ -52,6 +56,17 @@ DemRaster read_dem(const std::filesystem::path& path);
 world::RasterGrid load_dem_local(const std::filesystem::path& path);
 /// The same conversion for an already read raster.
 world::RasterGrid to_local_frame(const DemRaster& dem);
+
+/// The DEM warped into `frame` (see above). The output grid is GDAL's suggested one for the
+/// warp (about the source's resolution, square cells in metres); cells whose centre falls
+/// outside the source footprint (the corners of a footprint rotated by the meridian
+/// convergence) are trimmed away row by row and column by column from the border, so every
+/// height is interpolated from real data, never extrapolated. Throws InputError naming the
+/// file when it has no CRS (it cannot be placed), when GDAL/PROJ cannot transform it, or when
+/// nothing is left.
+world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame);
+/// The same warp for an already read raster.
+world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame);
 
 /// Writes `grid` as a Float64 GeoTIFF in EPSG:`epsg`; the grid's coordinates are taken to be
 /// in that CRS (south-west cell centre = origin, see raster_grid.hpp). Throws InputError on an

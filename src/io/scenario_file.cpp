@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/random.hpp"
+#include "io/geo_frame.hpp"
 #include "io/yaml_fields.hpp"
 
 namespace ridgeline::io {
@@ -23,6 +24,32 @@ std::string read_text_file(const fs::path& path, const std::string& field) {
   text << in.rdbuf();
   if (in.bad()) throw InputError(field, fmt::format("error while reading '{}'", path.string()));
   return text.str();
+}
+
+// A position given either as `<metric_key>: [x, y, z]` in the local ENU frame or as
+// `<geo_key>: {lat_deg, lon_deg, alt_amsl_m}` (WGS 84, needs the scenario's origin).
+Vec3 parse_position(YamlMap& m, const std::string& metric_key, const std::string& geo_key,
+                    const GeoFrame* frame) {
+  const bool metric = m.has(metric_key);
+  if (metric == m.has(geo_key)) {
+    throw InputError(m.path(), fmt::format("give exactly one of '{}' (local ENU metres) or '{}' "
+                                           "({{lat_deg, lon_deg, alt_amsl_m}})",
+                                           metric_key, geo_key));
+  }
+  if (metric) return m.required(metric_key).as_vec3();
+  const YamlValue value = m.required(geo_key);
+  if (frame == nullptr) {
+    throw InputError(value.path(),
+                     "a latitude/longitude position needs a geodetic origin: add a "
+                     "top-level 'origin: {lat_deg, lon_deg, alt_amsl_m}'");
+  }
+  YamlMap g = value.as_map();
+  GeoPoint p;
+  p.lat_deg = g.required("lat_deg").as_double();
+  p.lon_deg = g.required("lon_deg").as_double();
+  p.alt_amsl_m = g.required("alt_amsl_m").as_double();
+  g.finish();
+  return frame->to_local(p, value.path());
 }
 
 world::PeakCombination parse_combination(const YamlValue& v) {
@@ -129,7 +156,8 @@ void parse_vehicle(YamlMap& m, vehicle::VehicleParams& v) {
   m.finish();
 }
 
-sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defaults) {
+sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defaults,
+                       const GeoFrame* frame) {
   YamlMap m = item.as_map();
   sim::UavSpec uav;
   uav.name = m.required("name").as_string();
@@ -139,7 +167,7 @@ sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defa
     parse_vehicle(vm, uav.vehicle);
   }
   YamlMap start = m.required("start").as_map();
-  uav.start_position_m = start.required("position_m").as_vec3();
+  uav.start_position_m = parse_position(start, "position_m", "position_geo", frame);
   uav.start_heading_rad = deg_to_rad(start.get_double("heading_deg", 0.0));
   uav.start_speed_m_s = start.get_double("speed_m_s", uav.vehicle.cruise_speed_m_s);
   start.finish();
@@ -148,22 +176,22 @@ sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defa
   return uav;
 }
 
-sim::InspectionTarget parse_target(const YamlValue& item) {
+sim::InspectionTarget parse_target(const YamlValue& item, const GeoFrame* frame) {
   YamlMap m = item.as_map();
   sim::InspectionTarget t;
   t.name = m.required("name").as_string();
-  t.position_m = m.required("position_m").as_vec3();
+  t.position_m = parse_position(m, "position_m", "position_geo", frame);
   t.priority = static_cast<int>(m.get_int("priority", t.priority));
   t.inspection_radius_m = m.get_double("inspection_radius_m", t.inspection_radius_m);
   m.finish();
   return t;
 }
 
-world::Threat parse_threat(const YamlValue& item, std::size_t index) {
+world::Threat parse_threat(const YamlValue& item, std::size_t index, const GeoFrame* frame) {
   YamlMap m = item.as_map();
   world::Threat t;
   t.name = m.get_string("name", fmt::format("threat{}", index + 1));
-  t.centre_m = m.required("centre_m").as_vec3();
+  t.centre_m = parse_position(m, "centre_m", "centre_geo", frame);
   t.velocity_m_s = m.required("velocity_m_s").as_vec3();
   t.radius_m = m.required("radius_m").as_double();
   t.appear_s = m.required("appear_s").as_double();
@@ -272,6 +300,20 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
   if (seed < 0) throw InputError("seed", "must not be negative");
   s.seed = static_cast<std::uint64_t>(seed);
 
+  // The origin comes first: lat/lon positions and a home-relative altitude band need it.
+  std::optional<GeoFrame> frame;
+  if (auto origin = top.optional("origin")) {
+    YamlMap m = origin->as_map();
+    sim::GeodeticOrigin o;
+    o.lat_deg = m.required("lat_deg").as_double();
+    o.lon_deg = m.required("lon_deg").as_double();
+    o.alt_amsl_m = m.required("alt_amsl_m").as_double();
+    m.finish();
+    frame.emplace(o);
+    s.origin = o;
+  }
+  const GeoFrame* geo = frame ? &*frame : nullptr;
+
   YamlMap area = top.required("area").as_map();
   s.area.x_min_m = area.required("x_min_m").as_double();
   s.area.x_max_m = area.required("x_max_m").as_double();
@@ -283,6 +325,22 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
     YamlMap m = alt->as_map();
     s.altitude.min_m = m.get_double("min_m", s.altitude.min_m);
     s.altitude.max_m = m.get_double("max_m", s.altitude.max_m);
+    const std::string reference = m.get_string("reference", "datum");
+    if (reference == "home") {
+      if (!s.origin) {
+        throw InputError("altitude.reference",
+                         "'home' means above the origin's altitude, but "
+                         "the scenario has no 'origin'");
+      }
+      s.altitude.min_m += s.origin->alt_amsl_m;
+      s.altitude.max_m += s.origin->alt_amsl_m;
+      s.altitude.stated_reference = sim::AltitudeLimits::Reference::kHome;
+    } else if (reference != "datum") {
+      throw InputError("altitude.reference",
+                       fmt::format("must be 'datum' (the frame's z: above mean sea level with "
+                                   "an origin) or 'home' (above the origin's altitude), got '{}'",
+                                   reference));
+    }
     m.finish();
   }
   if (auto safety = top.optional("safety")) {
@@ -302,12 +360,13 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
     parse_vehicle(m, vehicle_defaults);
   }
   for (const YamlValue& item : top.required("uavs").as_list())
-    s.uavs.push_back(parse_uav(item, vehicle_defaults));
+    s.uavs.push_back(parse_uav(item, vehicle_defaults, geo));
   for (const YamlValue& item : top.required("targets").as_list())
-    s.targets.push_back(parse_target(item));
+    s.targets.push_back(parse_target(item, geo));
   if (auto threats = top.optional("threats")) {
     const auto items = threats->as_list();
-    for (std::size_t i = 0; i < items.size(); ++i) s.threats.push_back(parse_threat(items[i], i));
+    for (std::size_t i = 0; i < items.size(); ++i)
+      s.threats.push_back(parse_threat(items[i], i, geo));
   }
   s.wind.seed = derive_seed(s.seed, 1);
   if (auto w = top.optional("wind")) {
@@ -335,7 +394,7 @@ LoadedScenario load_scenario(const std::string& yaml_text, const std::string& so
   LoadedScenario loaded;
   loaded.source = source;
   loaded.scenario = parse_scenario(yaml_text, source, base_dir);
-  loaded.terrain = build_terrain(loaded.scenario.terrain);
+  loaded.terrain = build_terrain(loaded.scenario.terrain, loaded.scenario.origin);
   std::vector<InputError> problems = sim::validate(loaded.scenario, *loaded.terrain);
   if (!problems.empty()) throw InvalidScenario(std::move(problems));
   return loaded;

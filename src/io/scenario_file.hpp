@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -43,8 +44,12 @@ std::string_view default_scenario_yaml();
 sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& source,
                              const std::filesystem::path& base_dir);
 
-/// Builds the terrain a scenario names (reading and possibly fitting its DEM).
-std::shared_ptr<const world::Terrain> build_terrain(const sim::TerrainSource& source);
+/// Builds the terrain a scenario names (reading and possibly fitting its DEM). With a geodetic
+/// origin a DEM in any CRS is warped into the origin's local frame (io/geo_frame.hpp);
+/// without one, a DEM in degrees is an error.
+std::shared_ptr<const world::Terrain> build_terrain(
+    const sim::TerrainSource& source,
+    const std::optional<sim::GeodeticOrigin>& origin = std::nullopt);
 
 /// Parses, builds the terrain and validates. Throws InputError (or InvalidScenario).
 LoadedScenario load_scenario(const std::string& yaml_text, const std::string& source,

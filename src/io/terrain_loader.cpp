@@ -1,19 +1,22 @@
 #include <fmt/format.h>
 
 #include "io/dem_file.hpp"
+#include "io/geo_frame.hpp"
 #include "io/scenario_file.hpp"
 #include "world/terrain.hpp"
 #include "world/terrain_fit.hpp"
 
 namespace ridgeline::io {
 
-std::shared_ptr<const world::Terrain> build_terrain(const sim::TerrainSource& source) {
+std::shared_ptr<const world::Terrain> build_terrain(
+    const sim::TerrainSource& source, const std::optional<sim::GeodeticOrigin>& origin) {
   if (source.kind == sim::TerrainSource::Kind::kPeaks)
     return std::make_shared<world::PeakTerrain>(source.peaks, "terrain");
 
   world::RasterGrid grid;
   try {
-    grid = load_dem_local(source.dem_path);
+    grid = origin ? load_dem_in_frame(source.dem_path, GeoFrame(*origin))
+                  : load_dem_local(source.dem_path);
   } catch (const InputError& e) {
     // The file's own error says what is wrong with it; the field says where it was named.
     throw InputError("terrain.dem.path", e.what());

@@ -31,10 +31,23 @@ struct Area {
   }
 };
 
-/// Hard altitude band of eq. 14, z in the terrain datum.
+/// Hard altitude band of eq. 14 in the frame's z: the terrain datum, or metres above mean sea
+/// level when the scenario has a geodetic origin. A file may state the band above the home
+/// altitude (the origin's, `altitude.reference: home`); the loader adds it, so min_m/max_m
+/// here are always in the frame's z.
 struct AltitudeLimits {
+  enum class Reference { kDatum, kHome };
   double min_m = 40.0;
   double max_m = 500.0;
+  Reference stated_reference = Reference::kDatum;  ///< how the file stated the band
+};
+
+/// A geodetic origin (WGS 84): the local ENU frame's (0, 0) and the home altitude. See
+/// io/geo_frame.hpp for the frame (transverse Mercator on the origin, z above mean sea level).
+struct GeodeticOrigin {
+  double lat_deg = 0.0;
+  double lon_deg = 0.0;
+  double alt_amsl_m = 0.0;
 };
 
 /// Hard safety distances.
@@ -121,6 +134,7 @@ struct Scenario {
   std::string name = "unnamed";
   std::uint64_t seed = 1;
   Area area;
+  std::optional<GeodeticOrigin> origin;  ///< when set, z is metres above mean sea level
   AltitudeLimits altitude;
   SafetyMargins safety;
   TerrainSource terrain;
