@@ -2,10 +2,11 @@
 // scenario (the embedded default without --scenario), plans every UAV's reference with the
 // global planner, flies the mission in closed loop (truth world, one agent per UAV talking
 // only through the transport, sudden threats, wind) and writes DIR/summary.json,
-// DIR/plan.json, DIR/metrics.json, DIR/trajectories.csv and DIR/report.html (the figures, with
-// plotly.js inlined; skipped with a warning when plotly.js is not installed). Progress goes to
-// stderr, a short table to stdout. Exit 0 when the flight was safe, 4 when a safety metric
-// failed (the outputs are still written: they are the evidence). --variation SEED flies a
+// DIR/plan.json, DIR/metrics.json, DIR/trajectories.csv, DIR/flight.geojson (when the scenario
+// has a geodetic origin) and DIR/report.html (the figures, with plotly.js inlined; skipped with
+// a warning when plotly.js is not installed). Progress goes to stderr, a short table to
+// stdout. Exit 0 when the flight was safe, 4 when a safety metric failed (the outputs are
+// still written: they are the evidence). --variation SEED flies a
 // Monte Carlo variation (the same plan; threats, wind, noise and starts varied) to replay a
 // failed run.
 #include <iostream>
@@ -15,6 +16,7 @@
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
+#include "io/geo_export.hpp"
 #include "io/plan_file.hpp"
 #include "io/report_html.hpp"
 #include "io/scenario_summary.hpp"
@@ -104,6 +106,19 @@ void register_run_command(CLI::App& app) {
     io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
     std::cout << "wrote summary.json, plan.json, metrics.json and trajectories.csv to "
               << dir.string() << '\n';
+    // The flown tracks, targets and threat tracks over a map (GeoJSON in WGS 84), when the
+    // scenario is placed on the Earth; a stale one from an earlier run would mislead.
+    const std::filesystem::path flight = dir / "flight.geojson";
+    if (flown_scenario.origin) {
+      io::write_file_atomically(
+          flight, io::to_geojson(io::mission_from_flight(flown_scenario, flown.trajectories)));
+      std::cout << "wrote flight.geojson to " << dir.string() << '\n';
+    } else {
+      std::error_code not_removed;
+      std::filesystem::remove(flight, not_removed);
+      std::cout << "no flight.geojson: the scenario names no geodetic origin ('origin: {lat_deg, "
+                   "lon_deg, alt_amsl_m}'), so the flight has no latitude/longitude\n";
+    }
     write_report(dir, [&](std::string_view plotly_js) {
       return io::mission_report_html({flown_scenario, *loaded.terrain, m, flown.trajectories},
                                      plotly_js);

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "io/geo_frame.hpp"
+
 namespace ridgeline::io {
 
 nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenario& scenario) {
@@ -72,6 +74,36 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
                       {"solve_time_s", r.solve_time_s},
                       {"total_time_s", r.total_time_s}};
   }
+  // The frame, the targets and the threats, so that exports (io/geo_export.hpp) need nothing
+  // but this file.
+  if (scenario.origin) {
+    const GeoFrame frame(*scenario.origin);
+    j["frame"] = {{"origin",
+                   {{"lat_deg", scenario.origin->lat_deg},
+                    {"lon_deg", scenario.origin->lon_deg},
+                    {"alt_amsl_m", scenario.origin->alt_amsl_m}}},
+                  {"projection", frame.proj_definition()},
+                  {"z", "metres above mean sea level"}};
+  } else {
+    j["frame"] = {{"origin", nullptr}, {"z", "metres in the terrain datum"}};
+  }
+  j["targets"] = nlohmann::json::array();
+  for (const sim::InspectionTarget& t : scenario.targets) {
+    j["targets"].push_back({{"name", t.name},
+                            {"position_m", {t.position_m.x(), t.position_m.y(), t.position_m.z()}},
+                            {"priority", t.priority},
+                            {"inspection_radius_m", t.inspection_radius_m}});
+  }
+  j["threats"] = nlohmann::json::array();
+  for (const world::Threat& t : scenario.threats) {
+    j["threats"].push_back(
+        {{"name", t.name},
+         {"centre_m", {t.centre_m.x(), t.centre_m.y(), t.centre_m.z()}},
+         {"velocity_m_s", {t.velocity_m_s.x(), t.velocity_m_s.y(), t.velocity_m_s.z()}},
+         {"radius_m", t.radius_m},
+         {"appear_s", t.appear_s},
+         {"vanish_s", t.vanish_s}});
+  }
   j["validation"] = {{"min_terrain_clearance_m", plan.validation.min_terrain_clearance_m},
                      {"min_separation_m", plan.validation.min_separation_m},
                      {"min_altitude_m", plan.validation.min_altitude_m},
@@ -93,6 +125,9 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
     }
     uj["length_m"] = u.timing.path_length_m;
     uj["duration_s"] = u.timing.duration_s;
+    for (const sim::UavSpec& spec : scenario.uavs) {
+      if (spec.name == u.name) uj["cruise_speed_m_s"] = spec.vehicle.cruise_speed_m_s;
+    }
     uj["max_turn_rate_rad_s"] = u.timing.max_turn_rate_rad_s;
     uj["max_climb_rate_m_s"] = u.timing.max_climb_rate_m_s;
     j["uavs"].push_back(std::move(uj));
