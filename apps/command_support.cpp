@@ -5,7 +5,6 @@
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
 #include "io/report_html.hpp"
-#include "sim/mission_problem.hpp"
 
 namespace ridgeline::apps {
 
@@ -13,10 +12,9 @@ io::LoadedScenario load_scenario_argument(const std::string& path) {
   return path.empty() ? io::load_default_scenario() : io::load_scenario_file(path);
 }
 
-std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded) {
-  planning::GlobalPlan plan =
-      planning::plan_mission(sim::make_planning_problem(loaded.scenario, loaded.terrain),
-                             sim::make_planner_options(loaded.scenario));
+std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded,
+                                                   sim::Method method) {
+  planning::GlobalPlan plan = sim::plan_for_method(loaded.scenario, loaded.terrain, method);
   if (plan.status == planning::GlobalPlanStatus::kPlanned) return plan;
   std::cerr << "error: planning failed (" << planning::to_string(plan.status)
             << "): " << plan.message << '\n';

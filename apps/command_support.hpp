@@ -9,14 +9,17 @@
 
 #include "io/scenario_file.hpp"
 #include "planning/global_planner.hpp"
+#include "sim/method.hpp"
 
 namespace ridgeline::apps {
 
 /// The scenario at `path`, or the embedded default when `path` is empty.
 io::LoadedScenario load_scenario_argument(const std::string& path);
 
-/// Plans the mission; on failure prints one error line, sets exit code 3 and returns nothing.
-std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded);
+/// Plans the mission with `method`'s planner (sim/method.hpp); on failure prints one error
+/// line, sets exit code 3 and returns nothing.
+std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded,
+                                                   sim::Method method = sim::Method::kProposed);
 
 /// Writes DIR/report.html as `build(plotly_js)` makes it, with the plotly bundle from
 /// io::plotly_js_path(). When the bundle is missing, prints one warning saying how to install

@@ -24,6 +24,7 @@ void register_montecarlo_command(CLI::App& app) {
     int runs = 100;
     int threads = 0;
     bool quiet = false;
+    std::string method = "proposed";
   };
   auto args = std::make_shared<Args>();
   CLI::App* mc = app.add_subcommand("montecarlo", "Fly many randomized variations of a mission");
@@ -34,11 +35,15 @@ void register_montecarlo_command(CLI::App& app) {
   mc->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   mc->add_option("--out", args->out, "Output folder")->capture_default_str();
   mc->add_flag("--quiet", args->quiet, "No progress bar");
+  mc->add_option("--method", args->method, "proposed, astar_dwa or wind_aware (see run --help)")
+      ->capture_default_str();
   mc->callback([args] {
+    const sim::Method method = sim::parse_method(args->method);
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
-    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
+    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded, method);
     if (!plan) return;
     sim::MonteCarloOptions options;
+    options.method = method;
     options.runs = args->runs;
     options.threads = args->threads > 0
                           ? args->threads
@@ -57,6 +62,7 @@ void register_montecarlo_command(CLI::App& app) {
     if (!args->quiet) std::cerr << '\n';
     nlohmann::json summary = report.summary();
     summary["scenario"] = loaded.scenario.name;
+    summary["method"] = sim::to_string(method);
     summary["global_plan_s"] = plan->total_time_s;
     nlohmann::json runs = nlohmann::json::array();
     for (const sim::MonteCarloRun& r : report.runs) {

@@ -56,23 +56,31 @@ void register_run_command(CLI::App& app) {
     std::string out = "out";
     bool quiet = false;
     std::optional<std::uint64_t> variation;
+    std::string method = "proposed";
   };
   auto args = std::make_shared<Args>();
   CLI::App* run = app.add_subcommand("run", "Plan and fly the mission (default: embedded scenario)");
   run->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   run->add_option("--out", args->out, "Output folder")->capture_default_str();
   run->add_flag("--quiet", args->quiet, "No progress on stderr");
+  run->add_option("--method", args->method,
+                  "Who plans and flies: proposed, astar_dwa ([7] improved A* + dynamic window) or "
+                  "wind_aware ([6] wind-aware offline path + pure pursuit)")
+      ->capture_default_str();
   run->add_option("--variation", args->variation,
                   "Fly the Monte Carlo variation with this seed (as listed by montecarlo)");
   run->callback([args] {
+    const sim::Method method = sim::parse_method(args->method);
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     nlohmann::json summary = io::summarize(loaded);
+    summary["method"] = sim::to_string(method);
     std::cout << io::summary_text(summary);
-    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
+    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded, method);
     if (!plan) return;
     std::cout << io::plan_summary_text(*plan, loaded.scenario);
 
     sim::MissionOptions options;
+    options.method = method;
     if (!args->quiet) {
       options.progress = [](double t, double duration) {
         if (static_cast<int>(t) % 10 == 0)

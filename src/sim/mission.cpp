@@ -12,6 +12,8 @@
 #include "core/error.hpp"
 #include "core/random.hpp"
 #include "sim/truth_world.hpp"
+#include "baselines/dwa_agent.hpp"
+#include "baselines/pursuit_agent.hpp"
 #include "swarm/in_process_transport.hpp"
 
 namespace ridgeline::sim {
@@ -84,6 +86,30 @@ swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
   return o;
 }
 
+baselines::BaselineAgentOptions make_baseline_agent_options(const Scenario& scenario, int index,
+                                                            const planning::UavPlan& plan) {
+  const UavSpec& uav = scenario.uavs[static_cast<std::size_t>(index)];
+  baselines::BaselineAgentOptions o;
+  o.id = index;
+  o.num_uavs = static_cast<int>(scenario.uavs.size());
+  o.vehicle = uav.vehicle;
+  for (const int k : plan.targets) {
+    const InspectionTarget& t = scenario.targets.at(static_cast<std::size_t>(k));
+    o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
+  }
+  o.control_period_s = scenario.mpc.control_period_s;
+  o.terrain_clearance_m = scenario.safety.terrain_clearance_m;
+  o.separation_m = scenario.safety.separation_m;
+  o.threat_margin_m = scenario.safety.threat_margin_m;
+  o.min_altitude_m = scenario.altitude.min_m;
+  o.max_altitude_m = scenario.altitude.max_m;
+  o.prediction_step_s = scenario.mpc.prediction_step_s;
+  o.prediction_steps = scenario.mpc.horizon_steps;
+  // The proposed tracker's command-rate limits (max_moves per prediction step).
+  o.max_command_rate = scenario.mpc.max_moves / scenario.mpc.prediction_step_s;
+  return o;
+}
+
 MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world::Terrain> terrain,
                           const planning::GlobalPlan& plan, const MissionOptions& options) {
   if (plan.status != planning::GlobalPlanStatus::kPlanned)
@@ -110,7 +136,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
       throw InputError(fmt::format("plan.uavs.{}.reference", up.name), "is missing");
     plans[static_cast<std::size_t>(it - scenario.uavs.begin())] = up;
   }
-  std::vector<std::unique_ptr<swarm::Agent>> agents;
+  std::vector<std::unique_ptr<swarm::UavAgent>> agents;
   for (int i = 0; i < n; ++i) {
     const planning::UavPlan& up = plans[static_cast<std::size_t>(i)];
     std::shared_ptr<const mpc::SampledReference> reference;
@@ -124,8 +150,22 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
       reference = std::make_shared<const mpc::SampledReference>(
           std::vector<double>{-1.0, 0.0}, std::vector<mpc::ReferencePoint>{hold, hold});
     }
-    agents.push_back(std::make_unique<swarm::Agent>(make_agent_options(scenario, i, up),
-                                                    std::move(reference), terrain));
+    switch (options.method) {
+      case Method::kProposed:
+        agents.push_back(std::make_unique<swarm::Agent>(make_agent_options(scenario, i, up),
+                                                        std::move(reference), terrain));
+        break;
+      case Method::kAstarDwa:
+        agents.push_back(std::make_unique<baselines::DwaAgent>(
+            make_baseline_agent_options(scenario, i, up), baselines::DwaOptions{},
+            std::move(reference), terrain));
+        break;
+      case Method::kWindAware:
+        agents.push_back(std::make_unique<baselines::PursuitAgent>(
+            make_baseline_agent_options(scenario, i, up), baselines::PursuitOptions{},
+            std::move(reference), terrain));
+        break;
+    }
   }
 
   MissionResult result;
@@ -168,7 +208,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     if (control_tick) {
       next_control_s += control_s;
       for (int i = 0; i < n; ++i) {
-        swarm::Agent& agent = *agents[static_cast<std::size_t>(i)];
+        swarm::UavAgent& agent = *agents[static_cast<std::size_t>(i)];
         UavTally& u = tally[static_cast<std::size_t>(i)];
         // Sensing: the truth's threats within this UAV's range.
         world.sensed_threats(i, sensed);
@@ -196,6 +236,8 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
           if (step.tracker != nullptr) {
             step_us.push_back(step.tracker->step_time_us);
             iterations.push_back(step.tracker->qp_iterations);
+          } else if (step.step_time_us >= 0.0) {
+            step_us.push_back(step.step_time_us);
           }
           u.max_slack_m = std::max(u.max_slack_m, step.max_slack_m);
         }
@@ -278,7 +320,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   m.qp_iterations = percentiles(iterations);
   m.mission_complete = true;
   for (int i = 0; i < n; ++i) {
-    const swarm::Agent& a = *agents[static_cast<std::size_t>(i)];
+    const swarm::UavAgent& a = *agents[static_cast<std::size_t>(i)];
     const UavTally& u = tally[static_cast<std::size_t>(i)];
     UavMetrics um;
     um.name = scenario.uavs[static_cast<std::size_t>(i)].name;

@@ -19,8 +19,10 @@
 
 #include "mpc/uav_tracker.hpp"
 #include "planning/global_planner.hpp"
+#include "sim/method.hpp"
 #include "sim/mission_metrics.hpp"
 #include "sim/scenario.hpp"
+#include "baselines/baseline_agent.hpp"
 #include "swarm/agent.hpp"
 
 namespace ridgeline::sim {
@@ -38,6 +40,8 @@ struct TrajectoryRow {
 
 struct MissionOptions {
   bool record_trajectories = true;
+  /// Which on-board agents fly the plan (method.hpp); the plan must be that method's.
+  Method method = Method::kProposed;
   /// Called about once per simulated second with (t, duration).
   std::function<void(double, double)> progress;
 };
@@ -53,6 +57,10 @@ mpc::UavTrackerOptions make_tracker_options(const Scenario& scenario, const UavS
 /// The agent's options for UAV `index` with its targets from the plan.
 swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
                                        const planning::UavPlan& plan);
+
+/// The comparison agents' options for UAV `index` (baselines/baseline_agent.hpp).
+baselines::BaselineAgentOptions make_baseline_agent_options(const Scenario& scenario, int index,
+                                                            const planning::UavPlan& plan);
 
 /// Flies the planned mission. `plan` must be planned (status kPlanned) for this scenario (a
 /// UAV without a plan entry holds at its start);

@@ -74,6 +74,7 @@ MonteCarloReport run_monte_carlo(const Scenario& scenario,
         const Scenario varied = vary_scenario(scenario, *terrain, run.seed, options.variation);
         MissionOptions mission;
         mission.record_trajectories = false;
+        mission.method = options.method;
         run.metrics = fly_mission(varied, terrain, plan, mission).metrics;
         run.failures = failures_of(run.metrics);
       } catch (const std::exception& e) {

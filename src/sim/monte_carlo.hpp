@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "planning/global_planner.hpp"
+#include "sim/method.hpp"
 #include "sim/mission_metrics.hpp"
 #include "sim/scenario.hpp"
 #include "sim/variation.hpp"
@@ -23,6 +24,7 @@ struct MonteCarloOptions {
   int runs = 100;
   int threads = 1;
   VariationOptions variation;
+  Method method = Method::kProposed;  ///< the agents that fly; the plan must be this method's
   /// Called from the worker threads (serialized) after each run: (done, total, failed so far).
   std::function<void(int, int, int)> progress;
 };

@@ -58,18 +58,12 @@
 
 #include "mpc/uav_tracker.hpp"
 #include "swarm/agent_reference.hpp"
+#include "swarm/uav_agent.hpp"
 #include "swarm/messages.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 
 namespace ridgeline::swarm {
-
-struct AgentTarget {
-  std::string name;
-  Vec3 position_m = Vec3::Zero();
-  double radius_m = 30.0;            ///< 3-D distance of a pass that counts
-  double altitude_band_m = 30.0;     ///< |z − z_target| of a pass that counts
-};
 
 struct AgentOptions {
   int id = 0;
@@ -96,67 +90,35 @@ struct AgentOptions {
   double max_altitude_m = 500.0;
 };
 
-/// What the agent's own sensor reports of a threat (centre at the time of sensing).
-struct ThreatObservation {
-  int threat_id = -1;
-  Vec3 centre_m = Vec3::Zero();
-  Vec3 velocity_m_s = Vec3::Zero();
-  double radius_m = 0.0;
-};
-
-enum class AgentMode { kTracking, kFallback, kFinished };
-const char* to_string(AgentMode mode);
-
-struct AgentCounters {
-  std::uint64_t messages_received = 0;
-  std::uint64_t messages_rejected = 0;
-  std::uint64_t stale_neighbour_steps = 0;  ///< control steps that used a stale prediction
-  std::uint64_t replans = 0;                ///< detours planned
-  std::uint64_t neighbour_conflicts = 0;    ///< re-plans that yielded to a neighbour
-  std::uint64_t replan_failures = 0;
-  std::uint64_t rejoins = 0;
-  std::uint64_t fallback_steps = 0;
-  std::uint64_t qp_failures = 0;
-  std::uint64_t threat_reports_sent = 0;
-};
-
-struct AgentStep {
-  vehicle::Input command = vehicle::Input::Zero();
-  AgentMode mode = AgentMode::kTracking;
-  Vec3 reference_m = Vec3::Zero();  ///< r(t) the agent tracked at this step
-  const mpc::UavTrackerResult* tracker = nullptr;  ///< valid until the next control()
-  double max_slack_m = 0.0;
-};
-
-class Agent {
+class Agent final : public UavAgent {
  public:
   /// `plan` is this UAV's reference from the global planner. Throws InputError for invalid
   /// options (names the field).
   Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledReference> plan,
         std::shared_ptr<const world::Terrain> terrain);
 
-  int id() const { return options_.id; }
+  int id() const override { return options_.id; }
 
   /// A message from the transport. Invalid ones are counted and ignored.
-  void receive(const Envelope& envelope);
+  void receive(const Envelope& envelope) override;
 
   /// The agent's own sensing at t; appends the ThreatReports to broadcast to `outbox`.
   void sense(double t_s, std::span<const ThreatObservation> observations,
-             std::vector<Message>& outbox);
+             std::vector<Message>& outbox) override;
 
   /// One control period at t with the measured state and wind.
   AgentStep control(double t_s, const vehicle::State& measured_state,
-                    const Vec3& measured_wind_m_s);
+                    const Vec3& measured_wind_m_s) override;
 
   /// The latest prediction as a message (empty positions before the first control()).
-  PredictedTrajectory prediction_message() const;
+  PredictedTrajectory prediction_message() const override;
 
   AgentMode mode() const { return mode_; }
-  bool finished() const { return mode_ == AgentMode::kFinished; }
-  int targets_inspected() const { return next_target_; }
+  bool finished() const override { return mode_ == AgentMode::kFinished; }
+  int targets_inspected() const override { return next_target_; }
   /// Names of targets declared missed (open when the plan ended + missed_after_s).
-  const std::vector<std::string>& missed_targets() const { return missed_; }
-  const AgentCounters& counters() const { return counters_; }
+  const std::vector<std::string>& missed_targets() const override { return missed_; }
+  const AgentCounters& counters() const override { return counters_; }
   const AgentReference& reference() const { return *reference_; }
   /// Threats the agent knows now (own sensing and reports).
   std::vector<world::Threat> known_threats() const;

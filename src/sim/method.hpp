@@ -1,0 +1,35 @@
+// The methods a mission can be flown with (issue 6): the proposed method and the paper's
+// comparison methods [7] and [6] (src/baselines/). All of them are planned on the same
+// scenario and flown through the same truth simulator, transport and metrics (mission.hpp);
+// only the planner and the on-board agent differ. Baseline [8] (DDPG with sound-source
+// tracking) is not implemented.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "planning/global_planner.hpp"
+#include "sim/scenario.hpp"
+
+namespace ridgeline::sim {
+
+enum class Method {
+  kProposed,   ///< "proposed": joint Ipopt plan (eq. 14–24) + incremental MPC agents
+  kAstarDwa,   ///< "astar_dwa": [7] improved A* + dynamic window
+  kWindAware,  ///< "wind_aware": [6] wind-aware offline path + pure pursuit / PID
+};
+
+/// "proposed", "astar_dwa", "wind_aware".
+std::string_view to_string(Method method);
+std::vector<Method> all_methods();
+
+/// Parses a method name; throws InputError(field, "unknown method 'x' (one of ...)").
+Method parse_method(std::string_view text, const std::string& field = "--method");
+
+/// The method's ground-station plan for the scenario (never throws on bad data: see status).
+planning::GlobalPlan plan_for_method(const Scenario& scenario,
+                                     std::shared_ptr<const world::Terrain> terrain, Method method);
+
+}  // namespace ridgeline::sim
