@@ -394,7 +394,8 @@ LoadedScenario load_scenario(const std::string& yaml_text, const std::string& so
   LoadedScenario loaded;
   loaded.source = source;
   loaded.scenario = parse_scenario(yaml_text, source, base_dir);
-  loaded.terrain = build_terrain(loaded.scenario.terrain, loaded.scenario.origin);
+  loaded.terrain =
+      build_terrain(loaded.scenario.terrain, loaded.scenario.origin, &loaded.scenario.area);
   std::vector<InputError> problems = sim::validate(loaded.scenario, *loaded.terrain);
   if (!problems.empty()) throw InvalidScenario(std::move(problems));
   return loaded;

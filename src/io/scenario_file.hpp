@@ -46,10 +46,12 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
 
 /// Builds the terrain a scenario names (reading and possibly fitting its DEM). With a geodetic
 /// origin a DEM in any CRS is warped into the origin's local frame (io/geo_frame.hpp);
-/// without one, a DEM in degrees is an error.
+/// without one, a DEM in degrees is an error. With `area`, a DEM that does not cover it is an
+/// error naming `area` (heights beyond a DEM would be invented).
 std::shared_ptr<const world::Terrain> build_terrain(
     const sim::TerrainSource& source,
-    const std::optional<sim::GeodeticOrigin>& origin = std::nullopt);
+    const std::optional<sim::GeodeticOrigin>& origin = std::nullopt,
+    const sim::Area* area = nullptr);
 
 /// Parses, builds the terrain and validates. Throws InputError (or InvalidScenario).
 LoadedScenario load_scenario(const std::string& yaml_text, const std::string& source,

@@ -162,6 +162,21 @@ TEST_F(GeoScenario, WithoutAnOriginTheDegreeDemAndLatLonAreErrors) {
   }
 }
 
+TEST_F(GeoScenario, AnAreaBeyondTheDemIsAnErrorNotInventedTerrain) {
+  // The warped DEM spans about ±3 km around the origin; a 4 km half-width does not fit.
+  std::string yaml = scenario_yaml(kOrigin, kHomeBand);
+  const std::string area = "area: {x_min_m: -1500, x_max_m: 1500, y_min_m: -1500, y_max_m: 1500}";
+  yaml.replace(yaml.find(area), area.size(),
+               "area: {x_min_m: -1500, x_max_m: 4000, y_min_m: -1500, y_max_m: 1500}");
+  try {
+    (void)load(yaml);
+    FAIL() << "an area beyond the DEM was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "area");
+    EXPECT_NE(e.reason().find("beyond the DEM"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(GeoScenario, BadOriginAndPositionValuesNameTheirFields) {
   try {
     (void)load(
