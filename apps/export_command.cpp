@@ -17,6 +17,7 @@
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
 #include "io/geo_export.hpp"
+#include "io/geo_frame.hpp"
 
 namespace ridgeline::apps {
 
@@ -44,34 +45,13 @@ nlohmann::json read_plan(const std::string& path) {
   }
 }
 
-// "LAT,LON,ALT" in degrees, degrees, metres above mean sea level.
-sim::GeodeticOrigin parse_origin(const std::string& text) {
-  std::vector<double> v;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      throw InputError("--origin", "'" + item + "' is not a number (expected LAT,LON,ALT_AMSL)");
-    }
-  }
-  if (v.size() != 3) {
-    throw InputError("--origin",
-                     "expected LAT,LON,ALT_AMSL (degrees, degrees, metres), got '" + text + "'");
-  }
-  return {v[0], v[1], v[2]};
-}
-
 void run_export(const ExportArgs& args) {
   if (args.format != "qgc" && args.format != "geojson" && args.format != "kml" &&
       args.format != "csv") {
     throw InputError("--format", "must be qgc, geojson, kml or csv, got '" + args.format + "'");
   }
   std::optional<sim::GeodeticOrigin> origin;
-  if (!args.origin.empty()) origin = parse_origin(args.origin);
+  if (!args.origin.empty()) origin = io::parse_origin_text(args.origin, "--origin");
   const io::MissionGeometry mission =
       io::mission_from_plan_json(read_plan(args.plan), args.plan, origin);
   const fs::path out(args.out);

@@ -4,6 +4,8 @@
 #include <proj.h>
 
 #include <cmath>
+#include <sstream>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -88,6 +90,26 @@ GeoPoint GeoFrame::to_geodetic(const Vec3& local_m) const {
   PJ_COORD in = proj_coord(local_m.x(), local_m.y(), 0.0, 0.0);
   const PJ_COORD out = proj_trans(impl_->projection, PJ_INV, in);
   return {proj_todeg(out.lp.phi), proj_todeg(out.lp.lam), local_m.z()};
+}
+
+sim::GeodeticOrigin parse_origin_text(const std::string& text, const std::string& field) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw InputError(field, "'" + item + "' is not a number (expected LAT,LON,ALT_AMSL)");
+    }
+  }
+  if (v.size() != 3) {
+    throw InputError(field,
+                     "expected LAT,LON,ALT_AMSL (degrees, degrees, metres), got '" + text + "'");
+  }
+  return {v[0], v[1], v[2]};
 }
 
 }  // namespace ridgeline::io

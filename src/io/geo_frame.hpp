@@ -59,4 +59,8 @@ class GeoFrame {
   std::unique_ptr<Impl> impl_;
 };
 
+/// "LAT,LON,ALT_AMSL" (degrees, degrees, metres), as command-line options give an origin.
+/// Throws InputError naming `field` unless it is three numbers; GeoFrame checks their ranges.
+sim::GeodeticOrigin parse_origin_text(const std::string& text, const std::string& field);
+
 }  // namespace ridgeline::io

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -99,10 +100,27 @@ sim::TerrainSource parse_terrain_include(const YamlValue& include, const fs::pat
   const std::string text = read_text_file(path, include.path());
   YamlMap top = YamlValue(parse_yaml(text, path.string()), path.string()).as_map();
   YamlMap terrain = top.required("terrain").as_map();
-  (void)top.optional("fit_report");  // informational only
+  // The report is informational but for the frame the fit was made in (fit-dem --origin).
+  std::optional<sim::GeodeticOrigin> fit_origin;
+  const bool has_report = top.has("fit_report");
+  if (auto report = top.optional("fit_report")) {
+    if (report->node().IsMap() && report->node()["origin"]) {
+      YamlMap o = YamlValue(report->node()["origin"], report->path() + ".origin").as_map();
+      sim::GeodeticOrigin g;
+      g.lat_deg = o.required("lat_deg").as_double();
+      g.lon_deg = o.required("lon_deg").as_double();
+      g.alt_amsl_m = o.required("alt_amsl_m").as_double();
+      o.finish();
+      fit_origin = g;
+    }
+  }
   top.finish();
   sim::TerrainSource source = parse_terrain(terrain, path.parent_path(), include_depth + 1);
-  if (source.included_from.empty()) source.included_from = path.string();
+  if (source.included_from.empty()) {
+    source.included_from = path.string();
+    source.included_fit_report = has_report;
+    source.included_fit_origin = fit_origin;
+  }
   return source;
 }
 
@@ -353,6 +371,36 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
 
   YamlMap terrain = top.required("terrain").as_map();
   s.terrain = parse_terrain(terrain, base_dir, 0);
+  if (s.terrain.included_fit_report) {
+    // A fitted terrain file is in the frame it was fitted in; flying it in another would put
+    // every peak in the wrong place.
+    const auto& fitted = s.terrain.included_fit_origin;
+    const std::string file = s.terrain.included_from;
+    if (s.origin && !fitted) {
+      throw InputError(
+          "terrain.include",
+          fmt::format("'{}' was fitted in its DEM's own south-west-corner frame "
+                      "(fit-dem without --origin), not in this scenario's "
+                      "geographic frame; fit it again with --origin {},{},{}",
+                      file, s.origin->lat_deg, s.origin->lon_deg, s.origin->alt_amsl_m));
+    }
+    if (fitted && !s.origin) {
+      throw InputError("terrain.include",
+                       fmt::format("'{}' was fitted around the geodetic origin ({}, {}, {} m); "
+                                   "the scenario must name the same 'origin'",
+                                   file, fitted->lat_deg, fitted->lon_deg, fitted->alt_amsl_m));
+    }
+    // 1e-7 degrees is about a centimetre: the file keeps 10 significant digits.
+    if (fitted && s.origin &&
+        (std::abs(fitted->lat_deg - s.origin->lat_deg) > 1e-7 ||
+         std::abs(fitted->lon_deg - s.origin->lon_deg) > 1e-7)) {
+      throw InputError("terrain.include",
+                       fmt::format("'{}' was fitted around the origin ({}, {}), not the "
+                                   "scenario's ({}, {})",
+                                   file, fitted->lat_deg, fitted->lon_deg, s.origin->lat_deg,
+                                   s.origin->lon_deg));
+    }
+  }
 
   vehicle::VehicleParams vehicle_defaults;
   if (auto v = top.optional("vehicle")) {

@@ -7,7 +7,8 @@
 namespace ridgeline::io {
 
 std::string terrain_fit_yaml(const world::TerrainFitResult& fit, const std::string& dem_path,
-                             const world::RasterGrid& grid) {
+                             const world::RasterGrid& grid,
+                             const std::optional<sim::GeodeticOrigin>& origin) {
   const world::PeakTerrainConfig& t = fit.terrain;
   YAML::Emitter out;
   // 10 significant digits: millimetres for projected coordinates up to 10^7 m, and no
@@ -40,13 +41,21 @@ std::string terrain_fit_yaml(const world::TerrainFitResult& fit, const std::stri
   out << YAML::Key << "time_s" << YAML::Value << fit.time_s;
   out << YAML::Key << "raster_cols" << YAML::Value << grid.cols;
   out << YAML::Key << "raster_rows" << YAML::Value << grid.rows;
+  if (origin) {
+    out << YAML::Key << "origin" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "lat_deg" << YAML::Value << origin->lat_deg;
+    out << YAML::Key << "lon_deg" << YAML::Value << origin->lon_deg;
+    out << YAML::Key << "alt_amsl_m" << YAML::Value << origin->alt_amsl_m;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
 
 void write_terrain_fit_yaml(const std::filesystem::path& path, const world::TerrainFitResult& fit,
-                            const std::string& dem_path, const world::RasterGrid& grid) {
-  write_file_atomically(path, terrain_fit_yaml(fit, dem_path, grid));
+                            const std::string& dem_path, const world::RasterGrid& grid,
+                            const std::optional<sim::GeodeticOrigin>& origin) {
+  write_file_atomically(path, terrain_fit_yaml(fit, dem_path, grid, origin));
 }
 
 }  // namespace ridgeline::io

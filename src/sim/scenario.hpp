@@ -66,6 +66,10 @@ struct TerrainSource {
   Kind kind = Kind::kPeaks;
   world::PeakTerrainConfig peaks;  ///< kPeaks
   std::string included_from;       ///< kPeaks read from a terrain file (`include:`), else empty
+  /// A fit-dem file records the frame it was fitted in: whether it had a fit report, and the
+  /// geodetic origin it was fitted around (none: the DEM's own south-west-corner frame).
+  bool included_fit_report = false;
+  std::optional<GeodeticOrigin> included_fit_origin;
   std::string dem_path;            ///< kDem, resolved against the scenario file's folder
   DemModel dem_model = DemModel::kRaster;
   int dem_fit_peaks = 8;
