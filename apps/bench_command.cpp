@@ -6,6 +6,7 @@
 // unconstrained Cholesky floor and a tight reference. Figures are medians and ratios from one
 // run: absolute times vary on shared machines.
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 
 #include "apps/command_support.hpp"
@@ -16,6 +17,7 @@
 #include "sim/mpc_benchmark.hpp"
 #include "sim/plan_benchmark.hpp"
 #include "sim/qp_benchmark.hpp"
+#include "sim/replan_benchmark.hpp"
 
 namespace ridgeline::apps {
 
@@ -61,6 +63,41 @@ void register_bench_command(CLI::App& app) {
     const sim::PlanBenchmarkReport report = sim::run_plan_benchmark(
         sim::make_planning_problem(loaded.scenario, loaded.terrain),
         sim::make_planner_options(loaded.scenario), o);
+    std::cout << report.to_json().dump(2) << '\n';
+  });
+
+  // `ridgeline bench replan [--scenario FILE] [--cases N] [--seed S] [--window-s W]
+  // [--time-margin-s D]`: the local re-plan (planning/local_replan) against N random sudden
+  // threats thrown at the scenario's plan: median/p99 wall and CPU time, status counts
+  // (sim/replan_benchmark.hpp).
+  struct ReplanCommandOptions {
+    std::string scenario;
+    sim::ReplanBenchmarkOptions benchmark;
+  };
+  auto replan_options = std::make_shared<ReplanCommandOptions>();
+  CLI::App* replan = bench->add_subcommand(
+      "replan", "The local re-plan's time over random sudden threats on the scenario's plan");
+  replan->add_option("--scenario", replan_options->scenario, "Scenario YAML (default: embedded)");
+  replan->add_option("--cases", replan_options->benchmark.cases, "random threats")
+      ->capture_default_str();
+  replan->add_option("--seed", replan_options->benchmark.seed, "seed of the cases")
+      ->capture_default_str();
+  replan
+      ->add_option("--window-s", replan_options->benchmark.replan.window_s, "re-planned window (s)")
+      ->capture_default_str();
+  replan->add_option("--time-margin-s", replan_options->benchmark.replan.threat_time_margin_s,
+                     "avoid each threat over [t - D, t + D] (default: its sweep over the window)");
+  replan->callback([replan_options] {
+    const sim::ReplanBenchmarkOptions& o = replan_options->benchmark;
+    if (o.cases < 1) throw InputError("--cases", "must be at least 1");
+    if (!(o.replan.window_s > 0.0 && std::isfinite(o.replan.window_s)))
+      throw InputError("--window-s", "must be positive");
+    if (!(o.replan.threat_time_margin_s >= 0.0))
+      throw InputError("--time-margin-s", "must not be negative");
+    const io::LoadedScenario loaded = load_scenario_argument(replan_options->scenario);
+    const sim::ReplanBenchmarkReport report =
+        sim::run_replan_benchmark(sim::make_planning_problem(loaded.scenario, loaded.terrain),
+                                  sim::make_planner_options(loaded.scenario), o);
     std::cout << report.to_json().dump(2) << '\n';
   });
   auto options = std::make_shared<sim::MpcBenchmarkOptions>();

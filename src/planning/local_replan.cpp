@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -129,6 +130,10 @@ std::string check_inputs(const LocalReplanProblem& p, const LocalReplanOptions& 
   if (!(o.validation_terrain_step_m > 0.0 && o.validation_terrain_step_m <= 5.0))
     return bad("options.validation_terrain_step_m", "must be in (0, 5] m");
   if (!nonneg(o.speed_tolerance_m_s)) return bad("options.speed_tolerance_m_s", "must be >= 0");
+  if (!nonneg(o.climb_headroom_m_s) || !(o.climb_headroom_m_s < p.vehicle.max_climb_rate_m_s))
+    return bad("options.climb_headroom_m_s", "must be >= 0 and below the vehicle's climb limit");
+  if (!nonneg(o.speed_headroom_m_s) || !(o.speed_headroom_m_s < p.vehicle.speed_band_m_s))
+    return bad("options.speed_headroom_m_s", "must be >= 0 and below the vehicle's speed band");
   if (!positive(o.timing.control_period_s))
     return bad("options.timing.control_period_s", "must be > 0");
   return "";
@@ -252,8 +257,8 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   GridUav grid;
   grid.name = "replan";
   grid.nominal_length_m = vehicle.cruise_speed_m_s * dt;
-  grid.max_length_m = vehicle.max_speed_m_s() * dt;
-  grid.max_climb_m = vehicle.max_climb_rate_m_s * dt;
+  grid.max_length_m = (vehicle.max_speed_m_s() - options.speed_headroom_m_s) * dt;
+  grid.max_climb_m = (vehicle.max_climb_rate_m_s - options.climb_headroom_m_s) * dt;
   grid.tan_max_pitch = std::tan(vehicle.max_pitch_rad);
   grid.pitch_rows = !(grid.max_climb_m <= grid.tan_max_pitch * grid.nominal_length_m);
   std::vector<Vec3> old_points;
@@ -263,7 +268,8 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   }
   for (int j = 0; j < last; ++j) {
     const double guess = (old_points[j + 1] - old_points[j]).head<2>().norm();
-    grid.min_length_m.push_back(std::min(vehicle.min_speed_m_s() * dt, 0.5 * guess));
+    grid.min_length_m.push_back(
+        std::min((vehicle.min_speed_m_s() + options.speed_headroom_m_s) * dt, 0.9 * guess));
   }
 
   // Warm start: the old reference, shifted sideways out of the threats' swept spheres.
@@ -297,6 +303,7 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
         const double m = std::abs(offset[i]) - step * std::abs(i - j);
         if (m > std::abs(spread[j])) spread[j] = sign * m;
       }
+
     std::vector<Vec3> guess = old_points;
     for (int j = 2; j <= n; ++j) {
       Vec3& p = guess[j];
@@ -320,6 +327,14 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   opt.terrain_clearance_m = options.terrain_clearance_m;
   opt.separation_m = options.separation_m;
   opt.time_step_s = dt;
+  // A corner of angle φ rounded at radius k_s·R_min needs k_s·R_min·tan(φ/2) of each
+  // neighbouring segment, of which the timing may use half: on a short grid the turn penalty
+  // starts where a cruise-length segment leaves no such room (the time parametrization reports
+  // a tighter corner as a turn-radius violation, which fails the window).
+  opt.max_turn_angle_rad = std::min(
+      opt.max_turn_angle_rad,
+      2.0 * std::atan(0.5 * grid.nominal_length_m /
+                      (options.timing.turn_radius_safety_factor * vehicle.min_turn_radius_m)));
 
   NlpSetup setup;
   setup.terrain = &terrain;
@@ -445,8 +460,14 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
     for (int j = 1; j <= n + 1; ++j) times.push_back(grid_time(j));
     TimeParametrizationOptions timing = options.timing;
     timing.initial_speed_m_s =
-        std::clamp(reference.at(t0).speed_m_s, vehicle.min_speed_m_s(), vehicle.max_speed_m_s());
-    TimeParametrizationResult tp = time_parametrize_timed(window, times, vehicle, timing);
+        std::clamp(reference.at(t0).speed_m_s, vehicle.min_speed_m_s() + options.speed_headroom_m_s,
+                   vehicle.max_speed_m_s() - options.speed_headroom_m_s);
+    // The timing flies within the band narrowed by the headroom, so that the rescaling below
+    // stays inside the vehicle's own band.
+    vehicle::VehicleParams timing_vehicle = vehicle;
+    timing_vehicle.speed_band_m_s -= options.speed_headroom_m_s;
+    timing_vehicle.max_climb_rate_m_s -= options.climb_headroom_m_s;
+    TimeParametrizationResult tp = time_parametrize_timed(window, times, timing_vehicle, timing);
     std::vector<Finding> findings;
     if (tp.status == TimeParametrizationStatus::kInvalidInput || tp.sample_times_s.size() < 2) {
       findings.push_back({Finding::Kind::kLimit, t0, 0.0, "time parametrization: " + tp.message});
@@ -533,27 +554,38 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
       return result;
     }
     last_finding = findings.front().description;
-    // Refine where the check failed (vehicle limits cannot be refined: they fail at once).
+    // Refine where the check failed (vehicle limits cannot be refined: they fail at once). A
+    // step refines once per round and kind, by its worst finding: the check reports every
+    // violating sample, and doubling the samples per finding would explode.
+    std::vector<std::array<double, 3>> worst(static_cast<std::size_t>(n + 1), {-1.0, -1.0, -1.0});
     for (const Finding& f : findings) {
       if (f.kind == Finding::Kind::kLimit || f.kind == Finding::Kind::kAltitude)
         return fail(LocalReplanStatus::kValidationFailed,
                     fmt::format("the re-planned window breaks a limit: {}", f.description));
       const int j = std::clamp(static_cast<int>(std::floor((f.time_s - t0) / dt)) + 1, 1, n);
-      const double extra = f.amount_m + 0.1;
-      for (int jj = std::max(1, j - 1); jj <= std::min(n, j + 1); ++jj) {
-        if (f.kind == Finding::Kind::kTerrain) {
-          int& s = setup.terrain_samples[0][jj];
-          s = 2 * s + 1;
-        } else if (f.kind == Finding::Kind::kThreat) {
-          steps[jj].threat_samples = 2 * steps[jj].threat_samples + 1;
-          steps[jj].threat_extra_m += jj == j ? extra : 0.0;
+      const int kind = f.kind == Finding::Kind::kTerrain  ? 0
+                       : f.kind == Finding::Kind::kThreat ? 1
+                                                          : 2;
+      worst[j][kind] = std::max(worst[j][kind], f.amount_m);
+    }
+    std::vector<std::array<bool, 3>> refine(static_cast<std::size_t>(n + 1), {false, false, false});
+    for (int j = 1; j <= n; ++j)
+      for (int kind = 0; kind < 3; ++kind) {
+        if (worst[j][kind] < 0.0) continue;
+        const double extra = worst[j][kind] + 0.1;
+        for (int jj = std::max(1, j - 1); jj <= std::min(n, j + 1); ++jj) refine[jj][kind] = true;
+        if (kind == 0) {
+          for (int p : {j, j + 1}) setup.clearance_extra_m[0][p] += extra;
+        } else if (kind == 1) {
+          steps[j].threat_extra_m += extra;
         } else {
-          steps[jj].separation_samples = 2 * steps[jj].separation_samples + 1;
-          steps[jj].separation_extra_m += jj == j ? extra : 0.0;
+          steps[j].separation_extra_m += extra;
         }
       }
-      if (f.kind == Finding::Kind::kTerrain)
-        for (int p : {j, j + 1}) setup.clearance_extra_m[0][p] += extra;
+    for (int j = 1; j <= n; ++j) {
+      if (refine[j][0]) setup.terrain_samples[0][j] = 2 * setup.terrain_samples[0][j] + 1;
+      if (refine[j][1]) steps[j].threat_samples = 2 * steps[j].threat_samples + 1;
+      if (refine[j][2]) steps[j].separation_samples = 2 * steps[j].separation_samples + 1;
     }
     previous = points;
     previous_bounds = solve.multipliers;

@@ -80,6 +80,10 @@ struct LocalReplanOptions {
   double threat_prefilter_m = 200.0;      ///< ≥ 0: rows where the guess is within R + this
   double separation_prefilter_m = 100.0;  ///< ≥ 0: rows where the guess is within this
   double lateral_rate_m_s = 5.0;  ///< > 0: warm start's sideways shift grows at most this fast
+  /// ≥ 0, below Δv: the grid's speed band is narrowed by this at both ends, so the timing's
+  /// rescaling to end exactly at t_1 (a few percent) stays inside the vehicle's band.
+  double speed_headroom_m_s = 0.5;
+  double climb_headroom_m_s = 0.15;  ///< ≥ 0, below w_max: the same for the climb limit
   // Hard limits (the global plan's).
   double min_altitude_m = 40.0;       ///< H_min, eq. 14
   double max_altitude_m = 500.0;      ///< H_max
@@ -97,7 +101,7 @@ struct LocalReplanOptions {
 
   static TrajectoryOptimizerOptions default_optimizer() {
     TrajectoryOptimizerOptions o;
-    o.max_iterations = 150;
+    o.max_iterations = 100;
     return o;
   }
 };
