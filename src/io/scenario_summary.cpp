@@ -86,6 +86,20 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
   j["safety"] = {{"terrain_clearance_m", s.safety.terrain_clearance_m},
                  {"separation_m", s.safety.separation_m},
                  {"altitude_m", {s.altitude.min_m, s.altitude.max_m}}};
+  // Where z is measured from (DESIGN §8): the terrain datum, or mean sea level with an origin.
+  if (s.origin) {
+    j["frame"] = {
+        {"origin",
+         {{"lat_deg", s.origin->lat_deg},
+          {"lon_deg", s.origin->lon_deg},
+          {"alt_amsl_m", s.origin->alt_amsl_m}}},
+        {"z", "metres above mean sea level"},
+        {"altitude_stated_above",
+         s.altitude.stated_reference == sim::AltitudeLimits::Reference::kHome ? "home"
+                                                                              : "mean sea level"}};
+  } else {
+    j["frame"] = {{"origin", nullptr}, {"z", "metres in the terrain datum"}};
+  }
   return j;
 }
 
@@ -108,6 +122,15 @@ std::string summary_text(const nlohmann::json& j) {
   out += fmt::format("\n  {} sudden threats, wind {:.1f} m/s mean (gust std {:.1f} m/s)\n",
                      j["threats"].size(), j["wind"]["mean_speed_m_s"].get<double>(),
                      j["wind"]["gust_std_m_s"].get<double>());
+  if (j.contains("frame") && j["frame"]["origin"].is_object()) {
+    const auto& o = j["frame"]["origin"];
+    out += fmt::format(
+        "  frame: origin {:.6f}, {:.6f} (home {:.1f} m AMSL), transverse Mercator; z above mean "
+        "sea level; altitude band {:.0f}..{:.0f} m AMSL (stated above {})\n",
+        o["lat_deg"].get<double>(), o["lon_deg"].get<double>(), o["alt_amsl_m"].get<double>(),
+        j["safety"]["altitude_m"][0].get<double>(), j["safety"]["altitude_m"][1].get<double>(),
+        j["frame"]["altitude_stated_above"].get<std::string>());
+  }
   out += fmt::format("  MPC {:.0f} Hz, horizon {} x {} s, control horizon {}\n",
                      j["mpc"]["rate_hz"].get<double>(), j["mpc"]["horizon_steps"].get<int>(),
                      j["mpc"]["prediction_step_s"].get<double>(),

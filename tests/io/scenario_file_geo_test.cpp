@@ -13,6 +13,7 @@
 #include "io/dem_file.hpp"
 #include "io/geo_frame.hpp"
 #include "io/scenario_file.hpp"
+#include "io/scenario_summary.hpp"
 #include "planning/global_planner.hpp"
 #include "sim/mission_problem.hpp"
 #include "support/temp_dir.hpp"
@@ -85,6 +86,13 @@ TEST_F(GeoScenario, LatLonPositionsAndHomeBandAreInTheLocalFrameAboveSeaLevel) {
   const Vec3 a = frame.to_local({46.5092, 7.9443, 950.0});
   EXPECT_LT((s.uavs[0].start_position_m - a).norm(), 1e-9);
   EXPECT_LT((s.threats[0].centre_m - Vec3(0.0, 0.0, 1000.0)).norm(), 1e-6);
+  // The summary (summary.json, `validate`) says where heights are measured from.
+  const nlohmann::json summary = summarize(loaded);
+  EXPECT_EQ(summary["frame"]["z"], "metres above mean sea level");
+  EXPECT_EQ(summary["frame"]["altitude_stated_above"], "home");
+  EXPECT_NE(summary_text(summary).find("altitude band 840..1300 m AMSL (stated above home)"),
+            std::string::npos)
+      << summary_text(summary);
   // The terrain is the DEM's real elevation wherever it is asked.
   for (const Vec3& p :
        {Vec3(0, 0, 0), Vec3(-1200, -1200, 0), Vec3(-383, 556, 0), Vec3(900, -700, 0)}) {
