@@ -175,6 +175,36 @@ void Agent::replan(double t_s, const Vec3& position_m) {
   }
   threat_buffer_ = known_threats();
   const int yielded = add_neighbour_conflicts(t_s, threat_buffer_);
+  if (options_.optimizer_replan && t_s < reference_->plan_end_time_s() - 1.0) {
+    // The window starts on the reference being flown (a current detour included) and, as long
+    // as windows are as long as detours, ends after any current detour: on the delayed plan.
+    planning::LocalReplanProblem p;
+    p.terrain = terrain_.get();
+    p.reference = reference_.get();
+    p.reference_end_time_s = reference_->plan_end_time_s();
+    p.start_time_s = t_s;
+    p.vehicle = options_.tracker.vehicle;
+    p.threats = threat_buffer_;
+    planning::LocalReplanOptions o = options_.local_replan;
+    o.window_s = options_.detour.lookahead_s;
+    o.threat_margin_m = options_.detour.threat_margin_m;
+    o.terrain_clearance_m = options_.detour.terrain_clearance_m;
+    o.separation_m = options_.tracker.separation_m;
+    o.min_altitude_m = options_.min_altitude_m;
+    o.max_altitude_m = options_.max_altitude_m;
+    planning::LocalReplanResult r = planning::replan_locally(p, o);
+    // No conflict on the flown reference: keep it, a current detour included (it is what
+    // avoids the threat, and it ends on the plan).
+    if (r.status == planning::LocalReplanStatus::kNoConflict) return;
+    if (r.ok()) {
+      reference_->set_detour(std::move(r.reference));
+      ++counters_.replans;
+      ++counters_.optimizer_replans;
+      if (yielded > 0) ++counters_.neighbour_conflicts;
+      return;
+    }
+    ++counters_.optimizer_fallbacks;  // and the geometric detour below
+  }
   const DelayedPlan plan(*reference_);
   DetourResult detour = plan_detour(plan, t_s, threat_buffer_, *terrain_, options_.detour);
   switch (detour.status) {

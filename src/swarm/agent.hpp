@@ -57,9 +57,10 @@
 #include <vector>
 
 #include "mpc/uav_tracker.hpp"
+#include "planning/local_replan.hpp"
 #include "swarm/agent_reference.hpp"
-#include "swarm/uav_agent.hpp"
 #include "swarm/messages.hpp"
+#include "swarm/uav_agent.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 
@@ -88,6 +89,22 @@ struct AgentOptions {
   int recover_after_successes = 10;
   double min_altitude_m = 40.0;
   double max_altitude_m = 500.0;
+  /// Re-plan a conflict with the local optimizer (planning/local_replan.hpp: the window
+  /// re-optimized against the known threats and the neighbour conflicts, densely validated)
+  /// instead of the geometric detour; the detour stays the fallback when the optimizer finds
+  /// no valid window. Off by default: an optimizer re-plan costs tens of milliseconds.
+  bool optimizer_replan = false;
+  /// Its options. The window is detour.lookahead_s; r_safe, h_safe, d_safe and the altitude
+  /// band are the detour's, the tracker's and this struct's. The threats (and neighbours, which
+  /// enter as moving spheres) are avoided within ±threat_time_margin_s of their predicted
+  /// times: a neighbour's sweep over the whole window would lie along its route.
+  planning::LocalReplanOptions local_replan = default_local_replan();
+
+  static planning::LocalReplanOptions default_local_replan() {
+    planning::LocalReplanOptions o;
+    o.threat_time_margin_s = 2.0;
+    return o;
+  }
 };
 
 class Agent final : public UavAgent {

@@ -42,6 +42,8 @@ struct AgentCounters {
   std::uint64_t replans = 0;                ///< detours planned (baselines: avoidance steps)
   std::uint64_t neighbour_conflicts = 0;    ///< re-plans that yielded to a neighbour
   std::uint64_t replan_failures = 0;
+  std::uint64_t optimizer_replans = 0;    ///< of `replans`, made by the local optimizer
+  std::uint64_t optimizer_fallbacks = 0;  ///< optimizer failures handed to the detour
   std::uint64_t rejoins = 0;
   std::uint64_t fallback_steps = 0;
   std::uint64_t qp_failures = 0;

@@ -115,6 +115,49 @@ TEST(Agent, KnownThreatOnTheReferenceTriggersADetour) {
   EXPECT_EQ(a.prediction_message().positions_m.size(), 40u);
 }
 
+// With optimizer_replan the conflict is re-planned by the local optimizer: the new reference
+// keeps R + r_safe from the (stationary) threat all along its window (checked every 0.05 s; the
+// reference is linear between 0.02 s samples, 0.05 m tolerance) and re-joins the plan at the
+// window's end.
+TEST(Agent, OptimizerReplanAvoidsAKnownThreatAndRejoinsThePlan) {
+  AgentOptions o = options(0, 1);
+  o.optimizer_replan = true;
+  o.local_replan.time_budget_s = 30.0;  // independent of the machine's load
+  Agent a(o, line_east(0.0), flat());
+  std::vector<Message> outbox;
+  const std::vector<ThreatObservation> seen{{0, Vec3(300, 0, 100), Vec3::Zero(), 40.0}};
+  a.sense(0.0, seen, outbox);
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(a.counters().replans, 1u);
+  EXPECT_EQ(a.counters().optimizer_replans, 1u);
+  EXPECT_EQ(a.counters().optimizer_fallbacks, 0u);
+  ASSERT_TRUE(a.reference().has_detour());
+  const double window = o.detour.lookahead_s;
+  for (double t = 0.0; t <= window; t += 0.05) {
+    const Vec3 q = a.reference().at(t).position_m;
+    EXPECT_GE((q - Vec3(300, 0, 100)).norm(), 40.0 + o.detour.threat_margin_m - 0.05)
+        << "t = " << t;
+  }
+  EXPECT_LT((a.reference().at(window).position_m - a.reference().plan_at(window).position_m).norm(),
+            1e-6);
+}
+
+// An optimizer that finds no window (here: no time at all) hands over to the geometric detour.
+TEST(Agent, OptimizerFailureFallsBackToTheDetour) {
+  AgentOptions o = options(0, 1);
+  o.optimizer_replan = true;
+  o.local_replan.time_budget_s = 1e-12;
+  Agent a(o, line_east(0.0), flat());
+  std::vector<Message> outbox;
+  const std::vector<ThreatObservation> seen{{0, Vec3(300, 0, 100), Vec3::Zero(), 40.0}};
+  a.sense(0.0, seen, outbox);
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(a.counters().optimizer_fallbacks, 1u);
+  EXPECT_EQ(a.counters().optimizer_replans, 0u);
+  EXPECT_EQ(a.counters().replans, 1u);
+  EXPECT_TRUE(a.reference().has_detour());
+}
+
 // A neighbour's broadcast: positions every 0.1 s over 4 s from `start` at `velocity`.
 PredictedTrajectory broadcast(int uav, double t_s, const Vec3& start, const Vec3& velocity) {
   PredictedTrajectory p{uav, t_s, 0.1, {}};
