@@ -351,7 +351,8 @@ Window trim_void_border(const world::RasterGrid& grid, const std::vector<char>& 
 
 }  // namespace
 
-world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame) {
+world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
+                                const std::optional<LocalWindow>& window) {
   if (!dem.has_crs) {
     throw InputError(dem.path,
                      "DEM has no CRS, so it cannot be placed relative to the geodetic origin; "
@@ -404,6 +405,27 @@ world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame) {
                      "GDAL cannot place the DEM in the local frame (is the origin on the same "
                      "side of the globe?): " +
                          last_gdal_error());
+  }
+  if (window) {
+    // Only the part of the DEM around the window is warped (a 1° SRTM1 tile is 13 million
+    // cells; a mission area a few thousand): the window plus two cells, at the suggested
+    // resolution, cut to the DEM's own footprint.
+    const double res_x = gt[1], res_y = -gt[5];
+    const double west = std::max(gt[0], window->x_min_m - 2.0 * res_x);
+    const double east = std::min(gt[0] + cols * res_x, window->x_max_m + 2.0 * res_x);
+    const double north = std::min(gt[3], window->y_max_m + 2.0 * res_y);
+    const double south = std::max(gt[3] - rows * res_y, window->y_min_m - 2.0 * res_y);
+    if (!(east > west) || !(north > south)) {
+      throw InputError(
+          dem.path,
+          fmt::format("the DEM does not reach the area x [{}, {}], y [{}, {}] "
+                      "m of the local frame",
+                      window->x_min_m, window->x_max_m, window->y_min_m, window->y_max_m));
+    }
+    gt[0] = west;
+    gt[3] = north;
+    cols = std::max(1, static_cast<int>(std::ceil((east - west) / res_x)));
+    rows = std::max(1, static_cast<int>(std::ceil((north - south) / res_y)));
   }
 
   DatasetPtr target(mem->Create("", cols, rows, 1, GDT_Float64, nullptr));
@@ -483,8 +505,9 @@ world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame) {
   return grid;
 }
 
-world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame) {
-  return warp_to_frame(read_dem(path), frame);
+world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame,
+                                    const std::optional<LocalWindow>& window) {
+  return warp_to_frame(read_dem(path), frame, window);
 }
 
 world::RasterGrid load_dem_local(const std::filesystem::path& path) {

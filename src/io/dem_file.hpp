@@ -17,6 +17,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "io/geo_frame.hpp"
@@ -57,6 +58,11 @@ world::RasterGrid load_dem_local(const std::filesystem::path& path);
 /// The same conversion for an already read raster.
 world::RasterGrid to_local_frame(const DemRaster& dem);
 
+/// A rectangle of the local frame, in metres.
+struct LocalWindow {
+  double x_min_m = 0.0, x_max_m = 0.0, y_min_m = 0.0, y_max_m = 0.0;
+};
+
 /// The DEM warped into `frame` (see above). The output grid is GDAL's suggested one for the
 /// warp (about the source's resolution, square cells in metres); cells whose centre falls
 /// outside the source footprint (the corners of a footprint rotated by the meridian
@@ -64,9 +70,14 @@ world::RasterGrid to_local_frame(const DemRaster& dem);
 /// height is interpolated from real data, never extrapolated. Throws InputError naming the
 /// file when it has no CRS (it cannot be placed), when GDAL/PROJ cannot transform it, or when
 /// nothing is left.
-world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame);
+/// With `window` only the DEM around that rectangle of the local frame (plus two cells) is
+/// warped, so a large tile around a small mission area costs little; the result may then not
+/// cover the window where the DEM itself does not.
+world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame,
+                                    const std::optional<LocalWindow>& window = std::nullopt);
 /// The same warp for an already read raster.
-world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame);
+world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
+                                const std::optional<LocalWindow>& window = std::nullopt);
 
 /// Writes `grid` as a Float64 GeoTIFF in EPSG:`epsg`; the grid's coordinates are taken to be
 /// in that CRS (south-west cell centre = origin, see raster_grid.hpp). Throws InputError on an

@@ -45,7 +45,12 @@ std::shared_ptr<const world::Terrain> build_terrain(
 
   world::RasterGrid grid;
   try {
-    grid = origin ? load_dem_in_frame(source.dem_path, GeoFrame(*origin))
+    std::optional<LocalWindow> window;
+    // A malformed area is reported by validation; it only narrows the warp when usable.
+    if (area != nullptr && area->x_min_m < area->x_max_m && area->y_min_m < area->y_max_m &&
+        std::isfinite(area->x_min_m + area->x_max_m + area->y_min_m + area->y_max_m))
+      window = LocalWindow{area->x_min_m, area->x_max_m, area->y_min_m, area->y_max_m};
+    grid = origin ? load_dem_in_frame(source.dem_path, GeoFrame(*origin), window)
                   : load_dem_local(source.dem_path);
   } catch (const InputError& e) {
     // The file's own error says what is wrong with it; the field says where it was named.

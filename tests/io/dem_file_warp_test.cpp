@@ -209,6 +209,21 @@ TEST_F(DemWarp, SrtmHgtTileWithAVoidIsWarpedAroundAnOrigin) {
   // Rounding to whole metres (0.5 m) plus two bilinear interpolations of a hill with
   // |h''| <= 1200 m / (3.8 km)² on ~93 m x 64 m cells (~0.2 m each). Measured: 0.76 m.
   EXPECT_LT(worst, 1.5);
+  // Warping only a 4 km window of the tile gives a small grid with the same heights.
+  const world::RasterTerrain part(
+      load_dem_in_frame(hgt, frame, LocalWindow{-2000.0, 2000.0, -1500.0, 2500.0}));
+  const world::RasterGrid& pg = part.grid();
+  EXPECT_LT(pg.cols * pg.cell_x_m, 4000.0 + 6.0 * pg.cell_x_m);
+  EXPECT_LT(pg.rows * pg.cell_y_m, 4000.0 + 6.0 * pg.cell_y_m);
+  EXPECT_LE(pg.origin_x_m, -2000.0 + 0.5 * pg.cell_x_m);
+  EXPECT_GE(pg.x_of_col(pg.cols - 1), 2000.0 - 0.5 * pg.cell_x_m);
+  EXPECT_LE(pg.origin_y_m, -1500.0 + 0.5 * pg.cell_y_m);
+  EXPECT_GE(pg.y_of_row(pg.rows - 1), 2500.0 - 0.5 * pg.cell_y_m);
+  for (int k = 0; k < 500; ++k) {
+    const double x = rng.uniform(-2000.0, 2000.0), y = rng.uniform(-1500.0, 2500.0);
+    const GeoPoint g = frame.to_geodetic(Vec3(x, y, 0.0));
+    ASSERT_NEAR(part.height(x, y), srtm_hill(g.lat_deg, g.lon_deg), 1.5);
+  }
   // The void (46.52°N, 7.5°E) is filled from its neighbours, not read as -32768 m.
   const Vec3 at_void = frame.to_local({46.52, 7.5, 0.0});
   EXPECT_NEAR(terrain.height(at_void.x(), at_void.y()), srtm_hill(46.52, 7.5), 2.0);
