@@ -21,12 +21,13 @@ void register_montecarlo_command(CLI::App& app);
 void register_vehicle_sim_command(CLI::App& app);
 void register_fly_command(CLI::App& app);
 void register_export_command(CLI::App& app);
+void register_experiment_command(CLI::App& app);
 
 inline std::vector<CommandRegistrar> all_commands() {
   return {register_scenario_command, register_validate_command, register_run_command,
           register_fit_dem_command, register_make_dem_command, register_plan_command,
           register_bench_command, register_montecarlo_command, register_vehicle_sim_command,
-          register_fly_command, register_export_command};
+          register_fly_command, register_export_command, register_experiment_command};
 }
 
 /// Exit code the chosen subcommand asks for (0 unless it called set_exit_code).

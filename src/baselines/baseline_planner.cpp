@@ -17,6 +17,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kDirections = 8;
 constexpr int kNoDirection = 8;
 constexpr int kDr[kDirections] = {0, 1, 1, 1, 0, -1, -1, -1};
@@ -221,8 +222,10 @@ std::vector<Vec3> profile(const planning::ClearanceGrid& grid, const std::vector
       const double phi = std::acos(std::clamp(d0.dot(d1), -1.0, 1.0));
       const double next = (xy[k + 1] - xy[k]).norm();
       corner_sample.push_back(samples.size() - 1);
-      corner_zone_m.push_back(std::min(arc_radius_m * std::tan(std::min(phi, 2.9) / 2.0) + 1.0,
-                                       0.45 * std::min(L, next)));
+      // The arc may use at most half of each segment beside it (time_parametrization.hpp),
+      // so the nearest kept sample is at least twice the tangent length away.
+      corner_zone_m.push_back(std::min(
+          2.0 * arc_radius_m * std::tan(std::min(phi, 2.9) / 2.0) + 1.0, 0.5 * std::min(L, next)));
     }
   }
   const std::size_t m = samples.size();
@@ -339,8 +342,7 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
       if (uav_plan.targets.empty()) continue;
       const LegCost cost(options, u.vehicle.cruise_speed_m_s);
       std::vector<Vec2> polyline{u.start_m.head<2>()};
-      std::vector<Pin> pins{{0.0, u.start_m.z()}};
-      double s_total = 0.0;
+      std::vector<double> fixed_z{u.start_m.z()};  // per vertex: pinned altitude, or NaN
       Vec3 from = u.start_m;
       for (const int t : uav_plan.targets) {
         const AllocationTarget& target = problem.targets[static_cast<std::size_t>(t)];
@@ -362,20 +364,55 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
         if (pts.size() == 1) pts.push_back(target.position_m.head<2>());
         const std::vector<Vec2> leg = smooth(grid, cost, pts, a, b);
         for (std::size_t k = 1; k < leg.size(); ++k) {
-          s_total += (leg[k] - polyline.back()).norm();
+          if ((leg[k] - polyline.back()).norm() < 0.05 && k + 1 < leg.size()) continue;
           polyline.push_back(leg[k]);
+          fixed_z.push_back(k + 1 == leg.size() ? target.position_m.z() : kNaN);
         }
-        pins.push_back({s_total, target.position_m.z()});
         from = target.position_m;
       }
-      // Merge points closer than a few centimetres (a target on a cell centre).
-      std::vector<Vec2> clean{polyline.front()};
-      for (std::size_t k = 1; k < polyline.size(); ++k)
-        if ((polyline[k] - clean.back()).norm() > 0.05 || k + 1 == polyline.size())
-          clean.push_back(polyline[k]);
-      const double slope = options.pitch_use * std::tan(u.vehicle.max_pitch_rad);
+      // Room for the corner arcs: a vertex whose adjacent segment is shorter than twice the
+      // arc's tangent length R·tan(φ/2) (plus the neighbour's) is removed when the segment that
+      // replaces it is passable; the start and targets stay.
       const double arc_radius =
           options.timing.turn_radius_safety_factor * u.vehicle.min_turn_radius_m;
+      const auto tangent_m = [&](std::size_t k) {
+        if (k == 0 || k + 1 >= polyline.size()) return 0.0;
+        const Vec2 d0 = (polyline[k] - polyline[k - 1]).normalized();
+        const Vec2 d1 = (polyline[k + 1] - polyline[k]).normalized();
+        const double phi = std::acos(std::clamp(d0.dot(d1), -1.0, 1.0));
+        return phi > deg_to_rad(150.0) ? 0.0 : 2.0 * arc_radius * std::tan(phi / 2.0) + 1.0;
+      };
+      for (bool changed = true; changed;) {
+        changed = false;
+        for (std::size_t k = 1; k + 1 < polyline.size() && !changed; ++k) {
+          const double need = tangent_m(k);
+          const bool short_before =
+              (polyline[k] - polyline[k - 1]).norm() < need + tangent_m(k - 1);
+          const bool short_after = (polyline[k + 1] - polyline[k]).norm() < need + tangent_m(k + 1);
+          if (!short_before && !short_after) continue;
+          // Remove this vertex, or the free neighbour across the short segment.
+          for (const std::size_t victim : {k, short_after ? k + 1 : k - 1}) {
+            if (victim == 0 || victim + 1 >= polyline.size() || !std::isnan(fixed_z[victim]))
+              continue;
+            const Vec2 a = polyline[victim - 1], b = polyline[victim + 1];
+            if (segment_cost(grid, cost, a, b, 0.0, grid.cell_of(a.x(), a.y()),
+                             grid.cell_of(b.x(), b.y())) == kInf)
+              continue;
+            polyline.erase(polyline.begin() + static_cast<std::ptrdiff_t>(victim));
+            fixed_z.erase(fixed_z.begin() + static_cast<std::ptrdiff_t>(victim));
+            changed = true;
+            break;
+          }
+        }
+      }
+      std::vector<Pin> pins;
+      double s_acc = 0.0;
+      for (std::size_t k = 0; k < polyline.size(); ++k) {
+        if (k > 0) s_acc += (polyline[k] - polyline[k - 1]).norm();
+        if (!std::isnan(fixed_z[k])) pins.push_back({s_acc, fixed_z[k]});
+      }
+      const std::vector<Vec2>& clean = polyline;
+      const double slope = options.pitch_use * std::tan(u.vehicle.max_pitch_rad);
       uav_plan.waypoints_m = profile(grid, clean, pins, options, slope, hard_clearance, arc_radius);
       plan.uavs.push_back(std::move(uav_plan));
       flying.push_back(&u);

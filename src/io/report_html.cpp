@@ -19,6 +19,7 @@ namespace ridgeline::io {
 
 extern const char* const kReportTemplateHtml;      // generated from web/report_template.html
 extern const char* const kMonteCarloTemplateHtml;  // from web/montecarlo_template.html
+extern const char* const kExperimentTemplateHtml;  // from web/experiment_template.html
 
 namespace {
 
@@ -400,6 +401,60 @@ std::string montecarlo_report_html(const nlohmann::json& summary, const nlohmann
   const std::string js = script_safe_js(plotly_js);
   const std::string json = script_safe_json(data);
   return fill_template(kMonteCarloTemplateHtml, {{"{{TITLE}}", title},
+                                                 {"{{PLOTLY_JS}}", js},
+                                                 {"{{METRICS_TABLES}}", tables},
+                                                 {"{{REPORT_DATA}}", json}});
+}
+
+namespace {
+
+/// One table per task: a row per method with the figures' values and the counts.
+std::string experiment_tables(const nlohmann::json& e) {
+  std::string html;
+  const auto num = [](const nlohmann::json& v) { return cell(v); };
+  for (const nlohmann::json& task : e.at("tasks")) {
+    html += "<h3>task " + escape_html(task.at("task").get<std::string>()) + " — " +
+            escape_html(task.value("description", "")) + "</h3>\n";
+    html +=
+        "<table class=\"experiment-task\">\n<tr><th>method</th><th>plan</th><th>plan time s</th>"
+        "<th>path m mean</th><th>path m std</th><th>avoidance success</th><th>encounters</th>"
+        "<th>tracking MSE m² mean</th><th>std</th><th>terrain coll.</th><th>threat intr.</th>"
+        "<th>separation viol.</th><th>constraint viol.</th><th>complete</th>"
+        "<th>step µs median</th><th>p99</th><th>max</th></tr>\n";
+    for (const auto& [name, M] : task.at("methods").items()) {
+      html += "<tr><td>" + escape_html(name) + "</td><td>" + num(M.at("plan_status")) +
+              "</td><td>" + num(M.at("plan_time_s")) + "</td><td>" +
+              num(M.at("path_length_m").at("mean")) + "</td><td>" +
+              num(M.at("path_length_m").at("std")) + "</td><td>" +
+              num(M.at("avoidance_success_rate")) + "</td><td>" + num(M.at("threat_encounters")) +
+              "</td><td>" + num(M.at("tracking_mse_m2").at("mean")) + "</td><td>" +
+              num(M.at("tracking_mse_m2").at("std")) + "</td><td>" +
+              num(M.at("collisions").at("terrain")) + "</td><td>" +
+              num(M.at("collisions").at("threat")) + "</td><td>" +
+              num(M.at("collisions").at("separation")) + "</td><td>" +
+              num(M.at("constraint_violations")) + "</td><td>" + num(M.at("missions_complete")) +
+              " / " + num(M.at("flown_runs")) + "</td><td>" +
+              num(M.at("control_step_us").at("median")) + "</td><td>" +
+              num(M.at("control_step_us").at("p99")) + "</td><td>" +
+              num(M.at("control_step_us").at("max")) + "</td></tr>\n";
+    }
+    html += "</table>\n";
+  }
+  return html;
+}
+
+}  // namespace
+
+std::string experiment_report_html(const nlohmann::json& experiment, std::string_view plotly_js) {
+  for (const char* key : {"tasks", "methods", "runs", "threads", "wall_time_s"})
+    if (!experiment.contains(key)) throw InputError(std::string("experiment.") + key, "is missing");
+  const std::string title =
+      fmt::format("{} tasks x {} methods x {} runs", experiment["tasks"].size(),
+                  experiment["methods"].size(), experiment["runs"].dump());
+  const std::string tables = experiment_tables(experiment);
+  const std::string js = script_safe_js(plotly_js);
+  const std::string json = script_safe_json(experiment);
+  return fill_template(kExperimentTemplateHtml, {{"{{TITLE}}", escape_html(title)},
                                                  {"{{PLOTLY_JS}}", js},
                                                  {"{{METRICS_TABLES}}", tables},
                                                  {"{{REPORT_DATA}}", json}});

@@ -74,6 +74,13 @@ nlohmann::json montecarlo_report_data(const nlohmann::json& summary, const nlohm
 std::string montecarlo_report_html(const nlohmann::json& summary, const nlohmann::json& runs,
                                    std::string_view plotly_js);
 
+/// DIR/report.html of `ridgeline experiment` (sim/experiment.hpp's experiment.json as given):
+/// Figure 3 (path length per task and method, mean ± std), Figure 4 (avoidance success with
+/// the encounters), Figure 5 (tracking MSE per task and method, and against the distance flown
+/// per task), and a table per task. Same status line as mission_report_html. Throws
+/// InputError when a top-level field is missing.
+std::string experiment_report_html(const nlohmann::json& experiment, std::string_view plotly_js);
+
 /// The environment variable that overrides where plotly.min.js is read from.
 inline constexpr const char* kPlotlyJsEnvVar = "RIDGELINE_PLOTLY_JS";
 

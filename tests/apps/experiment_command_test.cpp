@@ -1,0 +1,79 @@
+// `ridgeline experiment` end to end on the default scenario with one short run of one task:
+// experiment.json has the issue's shape ({"tasks": [{"task", "methods": {"proposed",
+// "astar_dwa", "wind_aware"}}]}) with the same seeds for every method, and an unknown method or
+// task is one clear error with a non-zero exit and nothing written.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "support/temp_dir.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+int run_cli(const std::string& args, const fs::path& log) {
+  const std::string cmd =
+      std::string(RIDGELINE_CLI_PATH) + " " + args + " > " + log.string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(ExperimentCommand, WritesTheIssuesShapeWithIdenticalSeeds) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const int rc =
+      run_cli("experiment --quiet --runs 1 --threads 2 --tasks northeast --duration 12 --out " +
+                  (dir / "ex").string(),
+              dir / "log");
+  ASSERT_EQ(rc, 0) << slurp(dir / "log");
+  const nlohmann::json e = nlohmann::json::parse(slurp(dir / "ex" / "experiment.json"));
+  ASSERT_EQ(e.at("tasks").size(), 1u);
+  const nlohmann::json& task = e["tasks"][0];
+  EXPECT_EQ(task.at("task"), "northeast");
+  ASSERT_EQ(task.at("methods").size(), 3u);
+  const auto seed = task["methods"]["proposed"]["runs"][0]["seed"];
+  for (const char* name : {"proposed", "astar_dwa", "wind_aware"}) {
+    const nlohmann::json& M = task["methods"].at(name);
+    EXPECT_TRUE(M.at("path_length_m").contains("mean"));
+    EXPECT_TRUE(M.at("path_length_m").contains("std"));
+    EXPECT_TRUE(M.contains("avoidance_success_rate"));
+    EXPECT_TRUE(M.contains("tracking_mse_m2"));
+    EXPECT_TRUE(M.contains("tracking_mse_by_distance"));
+    EXPECT_TRUE(M.contains("collisions"));
+    EXPECT_EQ(M["runs"][0]["seed"], seed) << name;
+  }
+  EXPECT_NE(slurp(dir / "log").find("task northeast:"), std::string::npos) << slurp(dir / "log");
+  fs::remove_all(dir);
+}
+
+TEST(ExperimentCommand, UnknownMethodOrTaskIsOneErrorAndWritesNothing) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  EXPECT_EQ(
+      run_cli("experiment --methods proposed,ddpg --out " + (dir / "a").string(), dir / "a.log"),
+      2);
+  EXPECT_NE(slurp(dir / "a.log").find("error: --methods: unknown method 'ddpg'"), std::string::npos)
+      << slurp(dir / "a.log");
+  EXPECT_EQ(run_cli("experiment --tasks moon --out " + (dir / "b").string(), dir / "b.log"), 2);
+  EXPECT_NE(slurp(dir / "b.log").find("error: --tasks: unknown task 'moon'"), std::string::npos)
+      << slurp(dir / "b.log");
+  EXPECT_EQ(run_cli("run --method dqn --out " + (dir / "c").string(), dir / "c.log"), 2);
+  EXPECT_NE(slurp(dir / "c.log").find("error: --method: unknown method 'dqn'"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "a" / "experiment.json"));
+  EXPECT_FALSE(fs::exists(dir / "b" / "experiment.json"));
+  EXPECT_FALSE(fs::exists(dir / "c"));
+  fs::remove_all(dir);
+}
+
+}  // namespace
