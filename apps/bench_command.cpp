@@ -1,6 +1,8 @@
 // `ridgeline bench mpc [--steps N] [--ipopt-every K] [--dump-qps FILE]`: measures the
 // tracker's full 50 Hz step and compares its QP solver with Ipopt on the same QPs, printing
 // JSON; --dump-qps writes the QPs it built as an RLQP file.
+// `ridgeline bench mission [--scenario FILE] [--repeats N]`: plans once, flies the mission N
+// times and reports the real-time factor (median, in wall-clock and thread CPU time).
 // `ridgeline bench qp --instances FILE [--json] [--method M] [--reference R]`: times the QP
 // solver on the instances of an RLQP file in order, hot-started as the MPC does, against the
 // unconstrained Cholesky floor and a tight reference. Figures are medians and ratios from one
@@ -13,6 +15,7 @@
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "qp/qp_instance_file.hpp"
+#include "sim/mission_benchmark.hpp"
 #include "sim/mission_problem.hpp"
 #include "sim/mpc_benchmark.hpp"
 #include "sim/plan_benchmark.hpp"
@@ -60,9 +63,9 @@ void register_bench_command(CLI::App& app) {
     std::erase_if(o.uav_counts, [&](int n) { return n > plan_options->max_uavs; });
     std::erase_if(o.waypoint_counts, [&](int n) { return n > plan_options->max_waypoints; });
     const io::LoadedScenario loaded = load_scenario_argument(plan_options->scenario);
-    const sim::PlanBenchmarkReport report = sim::run_plan_benchmark(
-        sim::make_planning_problem(loaded.scenario, loaded.terrain),
-        sim::make_planner_options(loaded.scenario), o);
+    const sim::PlanBenchmarkReport report =
+        sim::run_plan_benchmark(sim::make_planning_problem(loaded.scenario, loaded.terrain),
+                                sim::make_planner_options(loaded.scenario), o);
     std::cout << report.to_json().dump(2) << '\n';
   });
 
@@ -100,6 +103,27 @@ void register_bench_command(CLI::App& app) {
                                   sim::make_planner_options(loaded.scenario), o);
     std::cout << report.to_json().dump(2) << '\n';
   });
+
+  struct MissionCommandOptions {
+    std::string scenario;
+    sim::MissionBenchmarkOptions benchmark;
+  };
+  auto mission_options = std::make_shared<MissionCommandOptions>();
+  CLI::App* mission = bench->add_subcommand(
+      "mission", "The closed loop's real-time factor: one plan flown N times, medians");
+  mission->add_option("--scenario", mission_options->scenario, "Scenario YAML (default: embedded)");
+  mission->add_option("--repeats", mission_options->benchmark.repeats, "identical flights")
+      ->capture_default_str();
+  mission->callback([mission_options] {
+    if (mission_options->benchmark.repeats < 1) throw InputError("--repeats", "must be at least 1");
+    const io::LoadedScenario loaded = load_scenario_argument(mission_options->scenario);
+    const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
+    if (!plan) return;
+    const sim::MissionBenchmarkReport report = sim::run_mission_benchmark(
+        loaded.scenario, loaded.terrain, *plan, mission_options->benchmark);
+    std::cout << report.to_json().dump(2) << '\n';
+  });
+
   auto options = std::make_shared<sim::MpcBenchmarkOptions>();
   CLI::App* mpc = bench->add_subcommand(
       "mpc", "The MPC step (Np 40, Nc 10, 3 threats, 2 neighbours, terrain) and our QP vs Ipopt");
@@ -145,8 +169,8 @@ void register_bench_command(CLI::App& app) {
     } else if (qp_options->method == "interior-point") {
       o.settings.method = qp::QpMethod::kInteriorPoint;
     } else {
-      throw InputError("--method", "'" + qp_options->method +
-                                       "' is not one of active-set, interior-point");
+      throw InputError("--method",
+                       "'" + qp_options->method + "' is not one of active-set, interior-point");
     }
     if (qp_options->reference == "ipopt") {
       o.reference = sim::QpReference::kIpopt;
@@ -155,8 +179,8 @@ void register_bench_command(CLI::App& app) {
     } else if (qp_options->reference == "none") {
       o.reference = sim::QpReference::kNone;
     } else {
-      throw InputError("--reference", "'" + qp_options->reference +
-                                          "' is not one of ipopt, interior-point, none");
+      throw InputError("--reference",
+                       "'" + qp_options->reference + "' is not one of ipopt, interior-point, none");
     }
     const std::vector<qp::QpProblem> instances = qp::read_qp_instance_file(qp_options->instances);
     if (instances.empty()) throw InputError(qp_options->instances, "holds no instances");
@@ -168,9 +192,9 @@ void register_bench_command(CLI::App& app) {
     std::cout << report.count << " instances, " << report.method << ": solve median "
               << report.solve_us.median << " us (p99 " << report.solve_us.p99 << ", max "
               << report.solve_us.max << "), LLT floor median " << report.floor_llt_us_median
-              << " us, failures " << report.failures.size() << ", fallbacks "
-              << report.fallbacks << ", max violation " << report.max_violation
-              << ", max rel. objective gap " << report.max_rel_objective_gap << '\n';
+              << " us, failures " << report.failures.size() << ", fallbacks " << report.fallbacks
+              << ", max violation " << report.max_violation << ", max rel. objective gap "
+              << report.max_rel_objective_gap << '\n';
   });
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/cpu_clock.hpp"
 #include "core/error.hpp"
 
 namespace ridgeline::mpc {
@@ -382,6 +383,7 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
                                          const ReferenceTrajectory& reference,
                                          const TrackerEnvironment& environment) {
   const auto start = Clock::now();
+  const double cpu_start_s = thread_cpu_time_s();
   const vehicle::VehicleParams& p = options_.vehicle;
   const double dt = options_.prediction_step_s;
   result_.command_clamped = false;
@@ -468,6 +470,7 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   push_history(HistoryEntry{t_s, state, measured_wind_m_s, u_cmd});
   previous_command_ = u_cmd;
   result_.step_time_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+  result_.step_cpu_time_us = (thread_cpu_time_s() - cpu_start_s) * 1e6;
   return result_;
 }
 

@@ -153,6 +153,9 @@ struct UavTrackerResult {
   double qp_time_us = 0.0;
   double build_time_us = 0.0;  ///< QP assembly inside the MPC
   double step_time_us = 0.0;   ///< the whole step: history, linearization, rows, solve
+  /// The same step in this thread's CPU time: without the time a shared machine's other
+  /// processes held the core, which the wall-clock figure includes.
+  double step_cpu_time_us = 0.0;
   /// Predicted positions (3×Np) at times prediction_time_s(j) = t + (j+1)Δt_p, and states.
   MatX predicted_positions_m;
   MatX predicted_states;

@@ -1,5 +1,7 @@
 #include "sim/mission.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,8 +9,7 @@
 #include <set>
 #include <utility>
 
-#include <fmt/format.h>
-
+#include "core/cpu_clock.hpp"
 #include "core/error.hpp"
 #include "core/random.hpp"
 #include "sim/truth_world.hpp"
@@ -115,6 +116,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   if (plan.status != planning::GlobalPlanStatus::kPlanned)
     throw InputError("plan", "is not planned: " + plan.message);
   const auto wall_start = std::chrono::steady_clock::now();
+  const double cpu_start_s = thread_cpu_time_s();
   const int n = static_cast<int>(scenario.uavs.size());
 
   TruthWorld world(scenario, terrain);
@@ -172,8 +174,9 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   MissionMetrics& m = result.metrics;
   m.global_plan_s = plan.total_time_s;
   std::vector<UavTally> tally(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) tally[static_cast<std::size_t>(i)].last_position = world.true_position(i);
-  std::vector<double> step_us, iterations;
+  for (int i = 0; i < n; ++i)
+    tally[static_cast<std::size_t>(i)].last_position = world.true_position(i);
+  std::vector<double> step_us, step_cpu_us, iterations;
   std::set<std::pair<int, int>> encounters, intrusions, margin_violations, close_pairs;
   for (const char* kind : {"altitude", "pitch", "turn"}) m.constraint_violations[kind] = 0;
   double min_separation = kInf, min_threat = kInf, min_turn_radius = kInf;
@@ -235,6 +238,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
           world.set_command(i, step.command);
           if (step.tracker != nullptr) {
             step_us.push_back(step.tracker->step_time_us);
+            step_cpu_us.push_back(step.tracker->step_cpu_time_us);
             iterations.push_back(step.tracker->qp_iterations);
           } else if (step.step_time_us >= 0.0) {
             step_us.push_back(step.step_time_us);
@@ -266,11 +270,12 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
             if (ratio > 1.0 + 1e-6) ++m.constraint_violations["turn"];
           }
           if (std::abs(s[vehicle::kOmega]) > 1e-9)
-            min_turn_radius = std::min(min_turn_radius, s[vehicle::kV] / std::abs(s[vehicle::kOmega]));
+            min_turn_radius =
+                std::min(min_turn_radius, s[vehicle::kV] / std::abs(s[vehicle::kOmega]));
         }
         if (options.record_trajectories) {
-          result.trajectories.push_back({t, i, p, step.reference_m, s[vehicle::kV],
-                                         s[vehicle::kPsi], s[vehicle::kW]});
+          result.trajectories.push_back(
+              {t, i, p, step.reference_m, s[vehicle::kV], s[vehicle::kPsi], s[vehicle::kW]});
         }
       }
     }
@@ -311,12 +316,13 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   m.threat_encounters = static_cast<int>(encounters.size());
   m.threat_intrusions = static_cast<int>(intrusions.size());
   m.threat_margin_violations = static_cast<int>(margin_violations.size());
-  m.avoidance_success_rate =
-      encounters.empty() ? 1.0
-                         : static_cast<double>(m.threat_encounters - m.threat_intrusions) /
-                               static_cast<double>(m.threat_encounters);
+  m.avoidance_success_rate = encounters.empty()
+                                 ? 1.0
+                                 : static_cast<double>(m.threat_encounters - m.threat_intrusions) /
+                                       static_cast<double>(m.threat_encounters);
   m.separation_violations = static_cast<int>(close_pairs.size());
   m.mpc_solve_us = percentiles(step_us);
+  m.mpc_solve_cpu_us = percentiles(step_cpu_us);
   m.qp_iterations = percentiles(iterations);
   m.mission_complete = true;
   for (int i = 0; i < n; ++i) {
@@ -345,8 +351,8 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     um.messages_rejected = static_cast<long long>(c.messages_rejected);
     um.max_slack_m = u.max_slack_m;
     m.terrain_collisions += u.hit_terrain ? 1 : 0;
-    m.mission_complete = m.mission_complete && um.finished &&
-                         um.targets_inspected == um.targets_assigned;
+    m.mission_complete =
+        m.mission_complete && um.finished && um.targets_inspected == um.targets_assigned;
     m.uavs.push_back(std::move(um));
   }
   const swarm::TransportStats stats = transport.stats();
@@ -354,6 +360,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   m.messages_dropped = static_cast<long long>(stats.dropped);
   m.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  m.cpu_time_s = thread_cpu_time_s() - cpu_start_s;
   return result;
 }
 
@@ -362,10 +369,9 @@ std::string trajectories_csv(const std::vector<TrajectoryRow>& rows, const Scena
   out.reserve(rows.size() * 96);
   for (const TrajectoryRow& r : rows) {
     out += fmt::format("{:.2f},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.3f}\n",
-                       r.t_s, scenario.uavs[static_cast<std::size_t>(r.uav)].name,
-                       r.position_m.x(), r.position_m.y(), r.position_m.z(), r.reference_m.x(),
-                       r.reference_m.y(), r.reference_m.z(), r.speed_m_s, r.heading_rad,
-                       r.climb_rate_m_s);
+                       r.t_s, scenario.uavs[static_cast<std::size_t>(r.uav)].name, r.position_m.x(),
+                       r.position_m.y(), r.position_m.z(), r.reference_m.x(), r.reference_m.y(),
+                       r.reference_m.z(), r.speed_m_s, r.heading_rad, r.climb_rate_m_s);
   }
   return out;
 }

@@ -4,10 +4,9 @@
 #pragma once
 
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "sim/statistics.hpp"
 
@@ -41,25 +40,29 @@ struct UavMetrics {
 
 struct MissionMetrics {
   std::vector<UavMetrics> uavs;
-  double min_separation_m = 0.0;       ///< over pairs and time; +inf for one UAV (→ null)
-  double min_threat_distance_m = 0.0;  ///< to the threat surface; +inf without threats
-  int threat_encounters = 0;           ///< (UAV, threat) pairs where the UAV sensed it
-  int threat_intrusions = 0;           ///< (UAV, threat) pairs that ever were inside it
-  int threat_margin_violations = 0;    ///< pairs that came inside R + r_safe (not a collision)
-  double avoidance_success_rate = 1.0; ///< (encounters − intrusions)/encounters; 1 if none
-  int terrain_collisions = 0;          ///< UAVs that ever were below the terrain
-  int separation_violations = 0;       ///< pairs that ever came closer than d_safe
+  double min_separation_m = 0.0;        ///< over pairs and time; +inf for one UAV (→ null)
+  double min_threat_distance_m = 0.0;   ///< to the threat surface; +inf without threats
+  int threat_encounters = 0;            ///< (UAV, threat) pairs where the UAV sensed it
+  int threat_intrusions = 0;            ///< (UAV, threat) pairs that ever were inside it
+  int threat_margin_violations = 0;     ///< pairs that came inside R + r_safe (not a collision)
+  double avoidance_success_rate = 1.0;  ///< (encounters − intrusions)/encounters; 1 if none
+  int terrain_collisions = 0;           ///< UAVs that ever were below the terrain
+  int separation_violations = 0;        ///< pairs that ever came closer than d_safe
   std::map<std::string, int> constraint_violations;  ///< control steps per kind
   /// Flown turn radius v/|ω| at its smallest (the truth, lags included) and the largest
   /// ratio of the commanded |ω_c| to its limit v/R_min at the true speed when it was issued.
   double min_turn_radius_m = 0.0;
   double max_turn_command_ratio = 0.0;
-  Percentiles mpc_solve_us;             ///< the whole MPC step (linearize, build, solve)
+  Percentiles mpc_solve_us;      ///< the whole MPC step (linearize, build, solve)
+  Percentiles mpc_solve_cpu_us;  ///< the same steps in thread CPU time (no preemption)
   Percentiles qp_iterations;
   double global_plan_s = 0.0;
   double sim_time_s = 0.0;
   double wall_time_s = 0.0;
-  bool mission_complete = false;       ///< every UAV finished with every target inspected
+  /// The flight's CPU time on its thread: the closed loop's cost on one core, which a shared
+  /// machine's wall clock overstates by the time other processes held the core.
+  double cpu_time_s = 0.0;
+  bool mission_complete = false;  ///< every UAV finished with every target inspected
   long long messages_published = 0;
   long long messages_dropped = 0;
 

@@ -1,6 +1,6 @@
 #include "sim/mpc_benchmark.hpp"
 
-#include <time.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
@@ -8,8 +8,7 @@
 #include <optional>
 #include <vector>
 
-#include <fmt/format.h>
-
+#include "core/cpu_clock.hpp"
 #include "mpc/reference.hpp"
 #include "mpc/uav_tracker.hpp"
 #include "qp/ipopt_reference.hpp"
@@ -20,11 +19,7 @@
 namespace ridgeline::sim {
 namespace {
 
-double thread_cpu_us() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
-}
+double thread_cpu_us() { return thread_cpu_time_s() * 1e6; }
 
 }  // namespace
 
@@ -105,7 +100,8 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
     const auto start = std::chrono::steady_clock::now();
     const mpc::UavTrackerResult& r = tracker.step(t, state, wind, reference, environment);
     step_us.push_back(
-        std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count());
+        std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start)
+            .count());
     cpu_us.push_back(thread_cpu_us() - cpu_start);
     qp_us.push_back(r.qp_time_us);
     iterations.push_back(r.qp_iterations);
@@ -119,8 +115,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
         r.qp_status == qp::QpStatus::kSolved) {
       // bound_relax_factor 0: Ipopt's default relaxation of the sides by 1e-8 (relative) shifts
       // the objective by up to ~3e-4 on these QPs, hiding the solvers' own accuracy.
-      const qp::IpoptQpSolution ipopt =
-          qp::solve_with_ipopt(tracker.mpc().qp_problem(), 1e-9, 0.0);
+      const qp::IpoptQpSolution ipopt = qp::solve_with_ipopt(tracker.mpc().qp_problem(), 1e-9, 0.0);
       if (ipopt.solved()) {
         ++report.ipopt_compared;
         ipopt_us.push_back(ipopt.solve_time_us);

@@ -1,23 +1,18 @@
 #include "sim/plan_benchmark.hpp"
 
-#include <time.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
 
-#include <fmt/format.h>
-
+#include "core/cpu_clock.hpp"
 #include "core/error.hpp"
 #include "planning/team_scenarios.hpp"
 
 namespace ridgeline::sim {
 namespace {
 
-double process_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
-}
+double process_cpu_s() { return process_cpu_time_s(); }
 
 }  // namespace
 
@@ -53,11 +48,11 @@ nlohmann::json PlanScalingRow::to_json() const {
 }
 
 nlohmann::json PlanBenchmarkReport::to_json() const {
-  nlohmann::json j = {{"case", fmt::format("default scenario, {} UAVs x {} waypoints", base.uavs,
-                                           base.waypoints)},
-                      {"plan_s", sim::to_json(base.plan_s)},
-                      {"plan_cpu_s", sim::to_json(base.plan_cpu_s)},
-                      {"base", base.to_json()}};
+  nlohmann::json j = {
+      {"case", fmt::format("default scenario, {} UAVs x {} waypoints", base.uavs, base.waypoints)},
+      {"plan_s", sim::to_json(base.plan_s)},
+      {"plan_cpu_s", sim::to_json(base.plan_cpu_s)},
+      {"base", base.to_json()}};
   j["scaling"] = nlohmann::json::array();
   for (const PlanScalingRow& row : scaling) j["scaling"].push_back(row.to_json());
   return j;
@@ -120,7 +115,8 @@ PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& ba
                                        const planning::GlobalPlannerOptions& base_options,
                                        const PlanBenchmarkOptions& options) {
   if (options.scaling_repeats < 0)
-    throw InputError("scaling_repeats", fmt::format("must be >= 0, got {}", options.scaling_repeats));
+    throw InputError("scaling_repeats",
+                     fmt::format("must be >= 0, got {}", options.scaling_repeats));
   if (!(options.scaling_time_budget_s > 0.0))
     throw InputError("scaling_time_budget_s", "must be > 0");
   PlanBenchmarkReport report;
@@ -128,7 +124,8 @@ PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& ba
   if (options.scaling_repeats == 0) return report;
   for (int uavs : options.uav_counts)
     for (int waypoints : options.waypoint_counts) {
-      if (waypoints < 2) throw InputError("waypoints", fmt::format("must be >= 2, got {}", waypoints));
+      if (waypoints < 2)
+        throw InputError("waypoints", fmt::format("must be >= 2, got {}", waypoints));
       if (uavs == report.base.uavs && waypoints == report.base.waypoints &&
           base.targets.size() == base.uavs.size()) {
         report.scaling.push_back(report.base);  // the base case is this row

@@ -7,47 +7,14 @@
 #include "sim/mission_problem.hpp"
 #include "sim/monte_carlo.hpp"
 #include "sim/statistics.hpp"
+#include "support/small_mission.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::sim {
 namespace {
 
-struct Fixture {
-  Scenario scenario;
-  std::shared_ptr<const world::Terrain> terrain;
-  planning::GlobalPlan plan;
-};
-
-// Two UAVs cross a hill to two targets 600 m away; a threat crosses their routes.
-Fixture small_mission(bool with_threat) {
-  Fixture f;
-  world::PeakTerrainConfig peaks;
-  peaks.peaks = {{350, 300, 60, 120, 120}};
-  f.terrain = std::make_shared<world::PeakTerrain>(peaks);
-  Scenario& s = f.scenario;
-  s.name = "small";
-  s.seed = 7;
-  s.area = {0, 800, 0, 800};
-  const Vec3 starts[] = {{100, 100, 60}, {100, 150, 60}};
-  for (int i = 0; i < 2; ++i) {
-    UavSpec u;
-    u.name = "u" + std::to_string(i);
-    u.start_position_m = starts[i];
-    u.start_heading_rad = kPi / 4;
-    s.uavs.push_back(u);
-  }
-  s.targets = {{"a", Vec3(650, 550, 80), 1, 30}, {"b", Vec3(600, 650, 80), 1, 30}};
-  if (with_threat)
-    s.threats = {{"t", Vec3(300, 500, 90), Vec3(2.0, -2.0, 0.0), 30.0, 5.0, 300.0}};
-  s.wind.mean_m_s = Vec3(1.0, 0.5, 0.0);
-  s.wind.gust_std_m_s = 0.5;
-  s.simulation.duration_s = 200.0;
-  s.simulation.link_drop_rate = 0.05;
-  EXPECT_TRUE(validate(s, *f.terrain).empty());
-  f.plan = planning::plan_mission(make_planning_problem(s, f.terrain), make_planner_options(s));
-  EXPECT_EQ(f.plan.status, planning::GlobalPlanStatus::kPlanned) << f.plan.message;
-  return f;
-}
+using test::Fixture;
+using test::small_mission;
 
 TEST(Mission, SmallMissionCompletesSafelyWithAThreatAndLossyLinks) {
   const Fixture f = small_mission(true);
@@ -111,7 +78,8 @@ TEST(MonteCarlo, ResultsDoNotDependOnTheNumberOfThreads) {
   for (std::size_t k = 0; k < 3; ++k) {
     EXPECT_EQ(a.runs[k].seed, b.runs[k].seed);
     EXPECT_DOUBLE_EQ(a.runs[k].metrics.min_separation_m, b.runs[k].metrics.min_separation_m);
-    EXPECT_DOUBLE_EQ(a.runs[k].metrics.uavs[0].path_length_m, b.runs[k].metrics.uavs[0].path_length_m);
+    EXPECT_DOUBLE_EQ(a.runs[k].metrics.uavs[0].path_length_m,
+                     b.runs[k].metrics.uavs[0].path_length_m);
   }
   EXPECT_NE(a.runs[0].metrics.uavs[0].path_length_m, a.runs[1].metrics.uavs[0].path_length_m);
   // 30 s is too short to finish: every run is listed as failed, with its seed.

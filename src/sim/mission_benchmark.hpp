@@ -1,0 +1,54 @@
+// The closed loop's speed: how much faster than real time the whole mission simulates.
+// One plan, then `repeats` identical flights of it (the same seed, so the same work each
+// time); the figures are medians over the flights, in wall-clock and in thread CPU time. On
+// a shared machine the wall clock includes the time other processes held the core, so the
+// CPU figure is the one that says what one core can do; both are reported.
+#pragma once
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "planning/global_planner.hpp"
+#include "sim/scenario.hpp"
+#include "sim/statistics.hpp"
+#include "world/terrain.hpp"
+
+namespace ridgeline::sim {
+
+struct MissionBenchmarkOptions {
+  int repeats = 5;  ///< identical flights; figures are their medians
+};
+
+/// One flight's figures.
+struct MissionBenchmarkRun {
+  double sim_time_s = 0.0;
+  double wall_time_s = 0.0;
+  double cpu_time_s = 0.0;
+  bool safe = false;
+  bool mission_complete = false;
+  Percentiles mpc_step_us;
+  Percentiles mpc_step_cpu_us;
+};
+
+struct MissionBenchmarkReport {
+  int uavs = 0;
+  std::vector<MissionBenchmarkRun> runs;
+  double real_time_factor_wall = 0.0;  ///< simulated s / wall s, median over the flights
+  double real_time_factor_cpu = 0.0;   ///< simulated s / thread CPU s, median over the flights
+  double wall_time_s_median = 0.0;
+  double cpu_time_s_median = 0.0;
+  /// Every flight simulated the same time and ended in the same state (the loop is
+  /// deterministic for a seed, so a difference is a bug, not noise).
+  bool deterministic = true;
+  nlohmann::json to_json() const;
+};
+
+/// Flies `plan` (which must be planned) `options.repeats` times and reports the speed.
+/// Throws InputError for repeats < 1 or a plan that is not planned.
+MissionBenchmarkReport run_mission_benchmark(const Scenario& scenario,
+                                             std::shared_ptr<const world::Terrain> terrain,
+                                             const planning::GlobalPlan& plan,
+                                             const MissionBenchmarkOptions& options = {});
+
+}  // namespace ridgeline::sim
