@@ -4,10 +4,10 @@
 // 95 % intervals, each metric's distribution, every failed run's seed), DIR/runs.json (each
 // run's metrics) and DIR/report.html (the rates and distributions as charts). Exit 0 when
 // every run was safe, 4 otherwise (the files are still written).
+#include <fmt/format.h>
+
 #include <iostream>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
@@ -28,7 +28,9 @@ void register_montecarlo_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* mc = app.add_subcommand("montecarlo", "Fly many randomized variations of a mission");
-  mc->add_option("--runs", args->runs, "Number of flights")->capture_default_str()->check(CLI::PositiveNumber);
+  mc->add_option("--runs", args->runs, "Number of flights")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   mc->add_option("--threads", args->threads, "Worker threads (0: one per core)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
@@ -77,11 +79,13 @@ void register_montecarlo_command(CLI::App& app) {
     io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
     const auto& c = summary["counts"];
     std::cout << fmt::format(
-        "{} runs in {:.1f} s ({:.2f} runs/s, {} threads): {} safe, {} complete; terrain "
+        "{} runs in {:.1f} s ({:.2f} runs/s, {} threads; {:.2f} runs per CPU second): {} safe, {} "
+        "complete; terrain "
         "collisions {}, threat intrusions {} of {} encounters, separation violations {}, "
         "constraint violations {}\n",
         report.runs.size(), report.wall_time_s, summary["runs_per_second"].get<double>(),
-        report.threads, c["safe_runs"].get<long long>(), c["complete_missions"].get<long long>(),
+        report.threads, summary["runs_per_cpu_second"].get<double>(),
+        c["safe_runs"].get<long long>(), c["complete_missions"].get<long long>(),
         c["terrain_collisions"].get<long long>(), c["threat_intrusions"].get<long long>(),
         c["threat_encounters"].get<long long>(), c["separation_violations"].get<long long>(),
         c["constraint_violations"].get<long long>());

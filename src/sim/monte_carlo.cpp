@@ -1,5 +1,7 @@
 #include "sim/monte_carlo.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -7,8 +9,6 @@
 #include <mutex>
 #include <numeric>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "core/error.hpp"
 #include "sim/mission.hpp"
@@ -43,17 +43,19 @@ nlohmann::json distribution(std::vector<double> v) {
 
 nlohmann::json rate(long long successes, long long trials) {
   const Interval w = wilson_interval(successes, trials);
-  return {{"successes", successes},
-          {"trials", trials},
-          {"value", trials > 0 ? static_cast<double>(successes) / static_cast<double>(trials) : 1.0},
-          {"wilson95", {w.low, w.high}}};
+  return {
+      {"successes", successes},
+      {"trials", trials},
+      {"value", trials > 0 ? static_cast<double>(successes) / static_cast<double>(trials) : 1.0},
+      {"wilson95", {w.low, w.high}}};
 }
 
 }  // namespace
 
 MonteCarloReport run_monte_carlo(const Scenario& scenario,
                                  std::shared_ptr<const world::Terrain> terrain,
-                                 const planning::GlobalPlan& plan, const MonteCarloOptions& options) {
+                                 const planning::GlobalPlan& plan,
+                                 const MonteCarloOptions& options) {
   if (options.runs < 1) throw InputError("runs", "must be at least 1");
   if (options.threads < 1) throw InputError("threads", "must be at least 1");
   if (plan.status != planning::GlobalPlanStatus::kPlanned)
@@ -90,16 +92,17 @@ MonteCarloReport run_monte_carlo(const Scenario& scenario,
   for (int t = 1; t < report.threads; ++t) pool.emplace_back(worker);
   worker();
   for (std::thread& t : pool) t.join();
-  report.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
 
 nlohmann::json MonteCarloReport::summary() const {
   const long long n = static_cast<long long>(runs.size());
-  long long safe = 0, complete = 0, encounters = 0, intrusions = 0, collisions = 0,
-            separation = 0, violations = 0, targets = 0, inspected = 0;
-  std::vector<double> min_sep, min_threat, min_clear, rmse, path, step_median, step_p99,
-      sim_time, wall_time, replans;
+  long long safe = 0, complete = 0, encounters = 0, intrusions = 0, collisions = 0, separation = 0,
+            violations = 0, targets = 0, inspected = 0;
+  std::vector<double> min_sep, min_threat, min_clear, rmse, path, step_median, step_p99, sim_time,
+      wall_time, cpu_time, replans;
   nlohmann::json failed = nlohmann::json::array();
   for (const MonteCarloRun& r : runs) {
     const MissionMetrics& m = r.metrics;
@@ -130,6 +133,7 @@ nlohmann::json MonteCarloReport::summary() const {
       step_p99.push_back(m.mpc_solve_us.p99);
       sim_time.push_back(m.sim_time_s);
       wall_time.push_back(m.wall_time_s);
+      cpu_time.push_back(m.cpu_time_s);
     }
     if (!r.failures.empty())
       failed.push_back({{"run", r.index},
@@ -138,11 +142,16 @@ nlohmann::json MonteCarloReport::summary() const {
                         {"replay", fmt::format("ridgeline run --variation {}", r.seed)}});
   }
   const double sim_total = std::accumulate(sim_time.begin(), sim_time.end(), 0.0);
+  // The flights' own CPU time: what the runs cost a core, whatever else shared the machine.
+  const double cpu_total = std::accumulate(cpu_time.begin(), cpu_time.end(), 0.0);
   return {{"runs", n},
           {"threads", threads},
           {"wall_time_s", wall_time_s},
           {"runs_per_second", wall_time_s > 0 ? static_cast<double>(n) / wall_time_s : 0.0},
           {"simulated_s_per_wall_s", wall_time_s > 0 ? sim_total / wall_time_s : 0.0},
+          {"flight_cpu_time_s", cpu_total},
+          {"runs_per_cpu_second", cpu_total > 0 ? static_cast<double>(n) / cpu_total : 0.0},
+          {"simulated_s_per_cpu_s", cpu_total > 0 ? sim_total / cpu_total : 0.0},
           {"counts",
            {{"safe_runs", safe},
             {"complete_missions", complete},
@@ -168,7 +177,8 @@ nlohmann::json MonteCarloReport::summary() const {
             {"mpc_step_us_median", distribution(step_median)},
             {"mpc_step_us_p99", distribution(step_p99)},
             {"sim_time_s", distribution(sim_time)},
-            {"wall_time_s", distribution(wall_time)}}},
+            {"wall_time_s", distribution(wall_time)},
+            {"cpu_time_s", distribution(cpu_time)}}},
           {"failed_runs", failed}};
 }
 

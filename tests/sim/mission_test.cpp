@@ -88,6 +88,17 @@ TEST(MonteCarlo, ResultsDoNotDependOnTheNumberOfThreads) {
   EXPECT_EQ(s["failed_runs"].size(), 3u);
   EXPECT_EQ(s["failed_runs"][0]["seed"].get<std::uint64_t>(), a.runs[0].seed);
   EXPECT_EQ(s["counts"]["complete_missions"].get<int>(), 0);
+  // The CPU figures add the flights' own thread CPU times; one thread's CPU time never
+  // exceeds the wall time of its flight (10 ms per flight for the clocks' granularities).
+  double cpu = 0.0, wall = 0.0;
+  for (const MonteCarloRun& r : a.runs) {
+    EXPECT_GT(r.metrics.cpu_time_s, 0.0);
+    cpu += r.metrics.cpu_time_s;
+    wall += r.metrics.wall_time_s;
+  }
+  EXPECT_NEAR(s["flight_cpu_time_s"].get<double>(), cpu, 1e-9);
+  EXPECT_LE(cpu, wall + 0.03);
+  EXPECT_NEAR(s["runs_per_cpu_second"].get<double>(), 3.0 / cpu, 1e-9);
 }
 
 TEST(Statistics, WilsonIntervalsMatchTheFormula) {
