@@ -20,6 +20,10 @@ void register_bench_command(CLI::App& app);
 void register_montecarlo_command(CLI::App& app);
 void register_vehicle_sim_command(CLI::App& app);
 void register_fly_command(CLI::App& app);
+void register_world_command(CLI::App& app);
+void register_agent_command(CLI::App& app);
+void register_ground_command(CLI::App& app);
+void register_launch_command(CLI::App& app);
 void register_export_command(CLI::App& app);
 void register_experiment_command(CLI::App& app);
 
@@ -27,7 +31,9 @@ inline std::vector<CommandRegistrar> all_commands() {
   return {register_scenario_command, register_validate_command, register_run_command,
           register_fit_dem_command, register_make_dem_command, register_plan_command,
           register_bench_command, register_montecarlo_command, register_vehicle_sim_command,
-          register_fly_command, register_export_command, register_experiment_command};
+          register_fly_command, register_export_command, register_experiment_command,
+          register_world_command, register_agent_command, register_ground_command,
+          register_launch_command};
 }
 
 /// Exit code the chosen subcommand asks for (0 unless it called set_exit_code).

@@ -34,6 +34,15 @@ void TruthWorld::set_command(int uav, const vehicle::Input& command) {
   uavs_[static_cast<std::size_t>(uav)].command = command;
 }
 
+void TruthWorld::release(int uav, const vehicle::Input& command) {
+  TruthUav& u = uavs_[static_cast<std::size_t>(uav)];
+  u.holding = false;
+  u.command = command;
+  u.state[vehicle::kV] = command[0];
+  u.state[vehicle::kOmega] = 0.0;
+  u.state[vehicle::kW] = 0.0;
+}
+
 void TruthWorld::hold(int uav) {
   TruthUav& u = uavs_[static_cast<std::size_t>(uav)];
   u.holding = true;

@@ -34,6 +34,11 @@ class TruthWorld {
   /// mission); it is no longer integrated and its rates read zero.
   void hold(int uav);
   bool holding(int uav) const { return uavs_[static_cast<std::size_t>(uav)].holding; }
+  /// Ends a hold: the UAV is integrated again from where it holds, leaving at the commanded
+  /// horizontal speed v_c (hovering is outside the motion model's speed band, eq. 2, so the
+  /// model cannot describe the acceleration out of it) with its turn and climb rates zero.
+  /// For a UAV whose agent started late, or a finished one given new targets.
+  void release(int uav, const vehicle::Input& command);
   /// Integrates every UAV up to time t_s with fixed RK4 steps of 1/truth_rate_hz (the last
   /// step may be shorter, so any t_s is reached exactly).
   void advance_to(double t_s);

@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/error.hpp"
 #include "transport_dds/dds_support.hpp"
@@ -51,6 +53,9 @@ DdsTransport::DdsTransport(std::shared_ptr<DdsParticipant> participant,
     throw InputError("link.jitter_s", fmt::format("must be >= 0, got {}", link.jitter_s));
   if (!(link.drop_rate >= 0.0 && link.drop_rate <= 1.0))
     throw InputError("link.drop_rate", fmt::format("must be in [0, 1], got {}", link.drop_rate));
+  newest_prediction_stamp_.assign(static_cast<std::size_t>(options.num_uavs),
+                                  -std::numeric_limits<double>::infinity());
+  reports_taken_.assign(static_cast<std::size_t>(options.num_uavs), 0);
   Impl& d = *impl_;
   d.participant = std::move(participant);
   const dds_entity_t p = d.participant->handle();
@@ -145,6 +150,12 @@ void DdsTransport::accept(swarm::Message message, int sender, double sent_s, dou
     last_rejection_ = fmt::format("{}: {}", swarm::message_type_name(message), *reason);
     return;
   }
+  if (const auto* p = std::get_if<swarm::PredictedTrajectory>(&message)) {
+    double& newest = newest_prediction_stamp_[static_cast<std::size_t>(p->uav)];
+    newest = std::max(newest, p->stamp_s);
+  } else if (const auto* r = std::get_if<swarm::ThreatReport>(&message)) {
+    ++reports_taken_[static_cast<std::size_t>(r->reporter)];
+  }
   const swarm::LinkModel& link = options_.emulated_link;
   double delivered_s = now_s;
   if (emulate) {
@@ -155,16 +166,37 @@ void DdsTransport::accept(swarm::Message message, int sender, double sent_s, dou
       ++stats_.dropped;
       return;
     }
-    delivered_s = now_s + link.latency_s + jitter;
+    // In mission time from the sender's stamp, as the in-process transport: a message is never
+    // seen in the tick it was sent, whatever DDS's own (wall-clock) delivery time was.
+    delivered_s = std::max(now_s, sent_s + link.latency_s + jitter);
   }
   pending_.push(
       Pending{swarm::Envelope{sender, sent_s, delivered_s, std::move(message)}, next_sequence_++});
+}
+
+double DdsTransport::newest_prediction_stamp(int uav) const {
+  if (uav < 0 || uav >= options_.num_uavs) return -std::numeric_limits<double>::infinity();
+  return newest_prediction_stamp_[static_cast<std::size_t>(uav)];
+}
+
+std::int64_t DdsTransport::reports_taken(int uav) const {
+  if (uav < 0 || uav >= options_.num_uavs) return 0;
+  return reports_taken_[static_cast<std::size_t>(uav)];
 }
 
 void DdsTransport::receive(int receiver, double now_s, std::vector<swarm::Envelope>& out) {
   if (receiver != options_.participant_id)
     throw InputError("receiver", fmt::format("this transport receives for participant {}, not {}",
                                              options_.participant_id, receiver));
+  poll(now_s);
+  while (!pending_.empty() && pending_.top().envelope.delivered_s <= now_s) {
+    out.push_back(pending_.top().envelope);
+    pending_.pop();
+    ++stats_.delivered;
+  }
+}
+
+void DdsTransport::poll(double now_s) {
   Impl& d = *impl_;
   const swarm::LinkModel& link = options_.emulated_link;
   const bool emulate = link.latency_s > 0.0 || link.jitter_s > 0.0 || link.drop_rate > 0.0;
@@ -217,11 +249,6 @@ void DdsTransport::receive(int receiver, double now_s, std::vector<swarm::Envelo
     }
     accept(std::move(m), options_.num_uavs, s.stamp_s, now_s, false);
   });
-  while (!pending_.empty() && pending_.top().envelope.delivered_s <= now_s) {
-    out.push_back(pending_.top().envelope);
-    pending_.pop();
-    ++stats_.delivered;
-  }
 }
 
 }  // namespace ridgeline::transport_dds

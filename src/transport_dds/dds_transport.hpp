@@ -14,10 +14,11 @@
 // envelope with the receiver's now_s. The sender of an envelope is the UAV the message names
 // (uav / reporter); a plan's sender is the ground station (num_uavs).
 //
-// An optional emulated link (LinkModel: extra latency, jitter, loss) is applied on reception,
-// in the receiver's mission time, to the UAV-to-UAV messages (predictions, threat reports,
-// states), for fault tests in lock-step, where wall-clock latency means nothing. Plans are
-// exempt: they come over the ground link, reliable.
+// An optional emulated link (LinkModel: latency, jitter, loss) is applied on reception to the
+// UAV-to-UAV messages (predictions, threat reports, states), in mission time: a message is
+// delivered when the receiver's now_s reaches the sender's stamp + latency + U(0, jitter)
+// (at once if that has passed). In lock-step, where wall-clock latency means nothing, this is
+// the link of the in-process simulation. Plans are exempt: they come over the ground link.
 #pragma once
 
 #include <cstdint>
@@ -60,6 +61,13 @@ class DdsTransport : public swarm::Transport {
   int matched_plan_readers() const;
   /// Messages received and kept by the emulated link, not yet due.
   std::size_t pending_count() const { return pending_.size(); }
+  /// Newest stamp of a valid prediction of `uav` taken from DDS (before the emulated link),
+  /// −∞ before the first; and the valid threat reports of `uav` taken so far. The lock-step
+  /// agent waits on these for its neighbours' messages of the previous tick.
+  double newest_prediction_stamp(int uav) const;
+  std::int64_t reports_taken(int uav) const;
+  /// Takes what DDS has delivered into the emulated link's queue without delivering.
+  void poll(double now_s);
 
  private:
   struct Impl;
@@ -81,6 +89,8 @@ class DdsTransport : public swarm::Transport {
   Rng rng_;
   std::uint64_t next_sequence_ = 0;
   std::priority_queue<Pending, std::vector<Pending>, Later> pending_;
+  std::vector<double> newest_prediction_stamp_;
+  std::vector<std::int64_t> reports_taken_;
   swarm::TransportStats stats_;
   std::string last_rejection_;
 };

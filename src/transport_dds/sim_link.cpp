@@ -98,7 +98,9 @@ struct SimLink::Impl {
   dds_entity_t command_writer = 0, command_reader = 0;
   dds_entity_t waitset = 0;
   std::vector<ridgeline_msg_dds__SensedThreat_> threats;
-  std::vector<std::int32_t> ids;
+  std::vector<std::int32_t> ids, answered;
+  std::vector<std::int64_t> reports;
+  std::vector<double> stamps;
   std::vector<char*> names;
 };
 
@@ -153,6 +155,22 @@ void SimLink::publish(const ClockTick& clock) {
   s.lost._maximum = s.lost._length = static_cast<std::uint32_t>(d.ids.size());
   s.lost._buffer = d.ids.data();
   s.lost._release = false;
+  if (clock.answered.size() != clock.reports_sent.size() ||
+      clock.answered.size() != clock.prediction_stamps.size())
+    throw InputError("ClockTick", "answered, reports_sent and prediction_stamps differ in length");
+  d.answered.assign(clock.answered.begin(), clock.answered.end());
+  d.reports.assign(clock.reports_sent.begin(), clock.reports_sent.end());
+  s.answered._maximum = s.answered._length = static_cast<std::uint32_t>(d.answered.size());
+  s.answered._buffer = d.answered.data();
+  s.answered._release = false;
+  s.reports_sent._maximum = s.reports_sent._length = static_cast<std::uint32_t>(d.reports.size());
+  s.reports_sent._buffer = d.reports.data();
+  s.reports_sent._release = false;
+  d.stamps.assign(clock.prediction_stamps.begin(), clock.prediction_stamps.end());
+  s.prediction_stamps._maximum = s.prediction_stamps._length =
+      static_cast<std::uint32_t>(d.stamps.size());
+  s.prediction_stamps._buffer = d.stamps.data();
+  s.prediction_stamps._release = false;
   dds_check(dds_write(d.clock_writer, &s), "dds_write(clock)");
   ++stats_.published;
 }
@@ -204,6 +222,7 @@ void SimLink::publish(const CommandReport& c) {
   swarm::AgentCounters counters = c.counters;
   const auto fields = counter_fields(counters);
   for (int k = 0; k < kNumCounters; ++k) s.counters[k] = static_cast<std::int64_t>(*fields[k]);
+  s.prediction_stamp_s = c.prediction_stamp_s;
   s.loop_period_s = c.loop_period_s;
   s.compute_s = c.compute_s;
   dds_check(dds_write(d.command_writer, &s), "dds_write(command)");
@@ -221,11 +240,24 @@ void SimLink::take(std::vector<ClockTick>& out) {
     c.lock_step = s.lock_step;
     std::string reason;
     if (!(std::isfinite(s.t_s) && s.t_s >= 0.0)) reason = fmt::format("t_s {} is invalid", s.t_s);
-    if (s.lost._length > kMaxLost) reason = fmt::format("{} lost UAVs, too many", s.lost._length);
+    if (s.lost._length > kMaxLost || s.answered._length > kMaxLost)
+      reason =
+          fmt::format("{} lost and {} answered UAVs, too many", s.lost._length, s.answered._length);
+    if (s.answered._length != s.reports_sent._length ||
+        s.answered._length != s.prediction_stamps._length)
+      reason = "answered, reports_sent and prediction_stamps differ in length";
     if (reason.empty()) {
       for (std::uint32_t k = 0; k < s.lost._length; ++k) {
         if (auto e = check_uav(s.lost._buffer[k], num_uavs_)) reason = *e;
         c.lost.push_back(s.lost._buffer[k]);
+      }
+      for (std::uint32_t k = 0; k < s.answered._length; ++k) {
+        if (auto e = check_uav(s.answered._buffer[k], num_uavs_)) reason = *e;
+        if (s.reports_sent._buffer[k] < 0) reason = "a report count is negative";
+        c.answered.push_back(s.answered._buffer[k]);
+        c.reports_sent.push_back(s.reports_sent._buffer[k]);
+        c.prediction_stamps.push_back(s.prediction_stamps._buffer[k]);
+        if (!std::isfinite(s.prediction_stamps._buffer[k])) reason = "a stamp is not finite";
       }
     }
     if (!reason.empty()) {
@@ -285,6 +317,7 @@ void SimLink::take(std::vector<CommandReport>& out) {
     c.plan_version = s.plan_version;
     c.targets_assigned = s.targets_assigned;
     c.targets_inspected = s.targets_inspected;
+    c.prediction_stamp_s = s.prediction_stamp_s;
     c.loop_period_s = s.loop_period_s;
     c.compute_s = s.compute_s;
     std::string reason;

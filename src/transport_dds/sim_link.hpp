@@ -28,6 +28,10 @@ struct ClockTick {
   bool running = true;    ///< false once: the mission is over, every node exits
   bool lock_step = true;  ///< false in real time
   std::vector<int> lost;  ///< UAVs whose agent the world declared lost
+  /// UAVs that answered the previous tick, and the threat reports each had sent by then.
+  std::vector<int> answered;
+  std::vector<std::int64_t> reports_sent;
+  std::vector<double> prediction_stamps;  ///< of the prediction each published with its answer
 };
 
 /// What one UAV's sensors report at a tick.
@@ -58,8 +62,9 @@ struct CommandReport {
   int targets_inspected = 0;
   std::vector<std::string> missed_targets;
   swarm::AgentCounters counters;
-  double loop_period_s = 0.0;  ///< agent's wall time between this and its previous answer
-  double compute_s = 0.0;      ///< agent's wall time from Measurement taken to answer written
+  double prediction_stamp_s = 0.0;  ///< stamp of the prediction published before the answer
+  double loop_period_s = 0.0;       ///< agent's wall time between this and its previous answer
+  double compute_s = 0.0;           ///< agent's wall time from Measurement taken to answer written
 };
 
 /// Which ends of the channel a node holds.

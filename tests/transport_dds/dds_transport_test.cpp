@@ -204,7 +204,7 @@ TEST(DdsTransport, EmulatedLinkDelaysAndDropsAtTheConfiguredRate) {
   ob.seed = 99;
   DdsTransport b(pb, ob);
   // Discovery first (this copy may be dropped: poll until one arrives or is dropped).
-  const swarm::ThreatReport r{0, 1, 1.0, Vec3(0, 0, 0), Vec3(1, 0, 0), 30.0};
+  swarm::ThreatReport r{0, 1, 1.0, Vec3(0, 0, 0), Vec3(1, 0, 0), 30.0};
   std::vector<swarm::Envelope> got;
   poll_until(
       [&] {
@@ -217,9 +217,10 @@ TEST(DdsTransport, EmulatedLinkDelaysAndDropsAtTheConfiguredRate) {
   got.clear();
   const swarm::TransportStats start = b.stats();
 
-  // 1000 reports in batches of 10 (the reader keeps 16), each batch received at t = 10 s:
-  // nothing may be delivered before t + 50 ms, and every kept copy at t + 50 ms.
+  // 1000 reports stamped t = 10 s in batches of 10 (the reader keeps 16), each batch received
+  // at t: nothing may be delivered before t + 50 ms, and every kept copy at t + 50 ms.
   constexpr int kBatches = 100;
+  r.stamp_s = 10.0;
   int delivered = 0;
   for (int batch = 0; batch < kBatches; ++batch) {
     for (int k = 0; k < 10; ++k) a.publish(0, 0.0, r);
@@ -303,7 +304,7 @@ TEST(SimLink, ClockMeasurementAndCommandRoundTrip) {
   auto pa = participant();
   SimLink world(pw, 3, world_role());
   SimLink agent(pa, 3, agent_role());
-  ClockTick clock{17, 0.34, true, true, {1}};
+  ClockTick clock{17, 0.34, true, true, {1}, {0, 2}, {5, 7}, {0.32, 0.3}};
   Measurement m;
   m.uav = 2;
   m.tick = 17;
@@ -325,6 +326,9 @@ TEST(SimLink, ClockMeasurementAndCommandRoundTrip) {
   EXPECT_EQ(clocks.back().tick, 17u);
   EXPECT_EQ(clocks.back().t_s, 0.34);
   EXPECT_EQ(clocks.back().lost, std::vector<int>{1});
+  EXPECT_EQ(clocks.back().answered, clock.answered);
+  EXPECT_EQ(clocks.back().reports_sent, clock.reports_sent);
+  EXPECT_EQ(clocks.back().prediction_stamps, clock.prediction_stamps);
   const Measurement& mm = measurements.back();
   EXPECT_EQ(mm.uav, 2);
   EXPECT_EQ(mm.state, m.state);
