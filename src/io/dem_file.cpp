@@ -408,13 +408,17 @@ world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
   }
   if (window) {
     // Only the part of the DEM around the window is warped (a 1° SRTM1 tile is 13 million
-    // cells; a mission area a few thousand): the window plus two cells, at the suggested
-    // resolution, cut to the DEM's own footprint.
+    // cells; a mission area a few thousand): the window plus two cells, cut to the DEM's own
+    // footprint, on the lattice of the whole warp's cells, so every height is the one the
+    // whole warp would give.
     const double res_x = gt[1], res_y = -gt[5];
-    const double west = std::max(gt[0], window->x_min_m - 2.0 * res_x);
-    const double east = std::min(gt[0] + cols * res_x, window->x_max_m + 2.0 * res_x);
-    const double north = std::min(gt[3], window->y_max_m + 2.0 * res_y);
-    const double south = std::max(gt[3] - rows * res_y, window->y_min_m - 2.0 * res_y);
+    const double full_east = gt[0] + cols * res_x, full_south = gt[3] - rows * res_y;
+    const double west = std::max(
+        gt[0], gt[0] + std::floor((window->x_min_m - 2.0 * res_x - gt[0]) / res_x) * res_x);
+    const double north = std::min(
+        gt[3], gt[3] - std::floor((gt[3] - window->y_max_m - 2.0 * res_y) / res_y) * res_y);
+    const double east = std::min(full_east, window->x_max_m + 2.0 * res_x);
+    const double south = std::max(full_south, window->y_min_m - 2.0 * res_y);
     if (!(east > west) || !(north > south)) {
       throw InputError(
           dem.path,
@@ -424,8 +428,8 @@ world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
     }
     gt[0] = west;
     gt[3] = north;
-    cols = std::max(1, static_cast<int>(std::ceil((east - west) / res_x)));
-    rows = std::max(1, static_cast<int>(std::ceil((north - south) / res_y)));
+    cols = std::max(1, static_cast<int>(std::ceil((east - west) / res_x - 1e-9)));
+    rows = std::max(1, static_cast<int>(std::ceil((north - south) / res_y - 1e-9)));
   }
 
   DatasetPtr target(mem->Create("", cols, rows, 1, GDT_Float64, nullptr));
