@@ -56,6 +56,7 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   if (!(o.tolerance > 0.0)) return bad("tolerance", "must be > 0");
   if (!(o.constraint_tolerance > 0.0)) return bad("constraint_tolerance", "must be > 0");
   if (o.max_iterations < 1) return bad("max_iterations", "must be >= 1");
+  if (o.iterations_per_uav < 0) return bad("iterations_per_uav", "must be >= 0");
   if (o.max_refinements < 0) return bad("max_refinements", "must be >= 0");
   if (!(o.time_budget_s > 0.0)) return bad("time_budget_s", "must be > 0");
   if (o.lbfgs_history < 1) return bad("lbfgs_history", "must be >= 1");
@@ -312,6 +313,10 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   validation.terrain_step_m = options.validation_terrain_step_m;
   validation.separation_period_s = options.validation_separation_period_s;
 
+  TrajectoryOptimizerOptions solve_options = options;
+  solve_options.max_iterations =
+      std::max(options.max_iterations, options.iterations_per_uav * n_uav);
+
   std::vector<std::vector<Vec3>> previous;
   std::map<TrajectoryNlp::RowKey, double> previous_lambda;  // by row, from the last solve
   Multipliers previous_bounds;                              // variables do not change
@@ -350,7 +355,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
                               options.time_budget_s, result.solves));
 
     const detail::IpoptSolve solve =
-        detail::solve_with_ipopt(nlp, std::move(x0), warm, options, remaining_s);
+        detail::solve_with_ipopt(nlp, std::move(x0), warm, solve_options, remaining_s);
     result.solve_time_s += solve.solve_time_s;
     ++result.solves;
     result.ipopt_iterations += solve.iterations;

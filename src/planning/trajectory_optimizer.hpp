@@ -166,7 +166,12 @@ struct TrajectoryOptimizerOptions {
   // Solver.
   double tolerance = 1e-5;            ///< Ipopt tol
   double constraint_tolerance = 1e-6; ///< Ipopt constr_viol_tol (m or m²)
-  int max_iterations = 500;           ///< per solve
+  int max_iterations = 500;           ///< per solve (at least iterations_per_uav × UAVs)
+  /// ≥ 0: the per-solve limit grows with the team, max(max_iterations, this × UAVs): more UAVs
+  /// start closer together and couple through more separation rows, and Ipopt needs more
+  /// iterations to pull them apart (10 UAVs × 100 waypoints on the default terrain: ~1600 over
+  /// 4 solves, where 500 stopped the first solve).
+  int iterations_per_uav = 200;
   int max_refinements = 3;            ///< re-solves after a failed validation
   double time_budget_s = 20.0;        ///< CPU time over all solves
   bool adaptive_barrier = false;      ///< Ipopt mu_strategy adaptive (else monotone: measured

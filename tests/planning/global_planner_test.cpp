@@ -83,6 +83,7 @@ TEST(GlobalPlanner, OptimizerFailureFallsBackToTheValidatedInitialPathsAndSaysSo
   const GlobalPlanningProblem p = default_like_problem();
   GlobalPlannerOptions o = fast_options();
   o.optimizer.max_iterations = 2;  // cannot converge from the initial paths in two steps
+  o.optimizer.iterations_per_uav = 0;
   const GlobalPlan plan = plan_mission(p, o);
   ASSERT_EQ(plan.status, GlobalPlanStatus::kPlanned) << plan.message;
   EXPECT_EQ(plan.path_source, PathSource::kInitialPathsOptimizerFailed);
@@ -106,6 +107,7 @@ TEST(GlobalPlanner, OptimizerFailureFailsThePlanWhenFallbackIsOff) {
   const GlobalPlanningProblem p = default_like_problem();
   GlobalPlannerOptions o = fast_options();
   o.optimizer.max_iterations = 2;
+  o.optimizer.iterations_per_uav = 0;
   o.on_optimizer_failure = OptimizerFallback::kFail;
   const GlobalPlan plan = plan_mission(p, o);
   EXPECT_EQ(plan.status, GlobalPlanStatus::kOptimizationFailed);

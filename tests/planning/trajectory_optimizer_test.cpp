@@ -335,6 +335,31 @@ TEST(TrajectoryOptimizer, CrossingUavsAreSeparatedAtEqualTimes) {
               o.separation_m + o.separation_margin_m - 1e-4);
 }
 
+// The per-solve iteration limit is max(max_iterations, iterations_per_uav × UAVs): the crossing
+// pair stops at a limit of 3 iterations, and solves when the per-UAV share lifts it to 500.
+TEST(TrajectoryOptimizer, IterationLimitGrowsWithTheTeam) {
+  const PeakTerrain flat(PeakTerrainConfig{});
+  TrajectoryProblem problem;
+  problem.terrain = &flat;
+  problem.uavs.push_back(
+      straight_uav("east", flat, Vec3(0.0, 500.0, 100.0), Vec3(1000.0, 500.0, 100.0)));
+  problem.uavs.push_back(
+      straight_uav("north", flat, Vec3(500.0, 0.0, 100.0), Vec3(500.0, 1000.0, 100.0)));
+  TrajectoryOptimizerOptions o;
+  o.waypoints_per_uav = 30;
+  o.max_iterations = 3;
+  o.iterations_per_uav = 0;
+  const TrajectoryResult limited = optimize_trajectories(problem, o);
+  EXPECT_EQ(limited.status, TrajectoryStatus::kIterationLimit) << limited.message;
+  EXPECT_TRUE(limited.paths.empty());
+  o.iterations_per_uav = 250;
+  const TrajectoryResult scaled = optimize_trajectories(problem, o);
+  EXPECT_TRUE(scaled.ok()) << to_string(scaled.status) << ": " << scaled.message;
+  EXPECT_GT(scaled.ipopt_iterations, 3);
+  o.iterations_per_uav = -1;
+  EXPECT_EQ(optimize_trajectories(problem, o).status, TrajectoryStatus::kInvalidInput);
+}
+
 TEST(TrajectoryOptimizer, ThreeUavsOnDefaultLikeTerrainPassDenseValidation) {
   const PeakTerrain terrain = default_like_terrain();
   const TrajectoryProblem problem = straight_line_team(terrain, 3);
