@@ -155,7 +155,8 @@ void Agent::update_mission(double t_s, const Vec3& position_m) {
     ++next_target_;
   }
   if (next_target_ == n) {
-    if (n > 0 || t_s >= reference_->plan_end_time_s()) mode_ = AgentMode::kFinished;
+    if ((n > 0 || t_s >= reference_->plan_end_time_s()) && !hold_point_threatened(t_s, position_m))
+      mode_ = AgentMode::kFinished;
     return;
   }
   if (t_s > reference_->plan_end_time_s() + options_.missed_after_s) {
@@ -163,6 +164,17 @@ void Agent::update_mission(double t_s, const Vec3& position_m) {
       missed_.push_back(options_.targets[static_cast<std::size_t>(k)].name);
     mode_ = AgentMode::kFinished;
   }
+}
+
+bool Agent::hold_point_threatened(double t_s, const Vec3& position_m) const {
+  constexpr double kStep = 0.5;  // s; at 8 m/s a threat moves 4 m between checks
+  for (const auto& [id, k] : threats_) {
+    const world::Threat& th = k.threat;
+    const double keep = th.radius_m + options_.detour.threat_margin_m + options_.detour.clearance_m;
+    for (double tau = t_s; tau <= t_s + options_.finish_threat_guard_s; tau += kStep)
+      if ((th.centre_at(tau) - position_m).norm() < keep) return true;
+  }
+  return false;
 }
 
 void Agent::replan(double t_s, const Vec3& position_m) {

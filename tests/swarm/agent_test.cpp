@@ -71,7 +71,8 @@ TEST(Agent, MalformedAndForeignMessagesAreRejectedAndCounted) {
 
 TEST(Agent, ThreatReportsAreLearnedAndOlderOnesIgnored) {
   Agent a(options(0, 2), line_east(0.0), flat());
-  a.receive(Envelope{1, 5.0, 5.01, ThreatReport{1, 4, 5.0, Vec3(500, 0, 100), Vec3(1, 0, 0), 30.0}});
+  a.receive(
+      Envelope{1, 5.0, 5.01, ThreatReport{1, 4, 5.0, Vec3(500, 0, 100), Vec3(1, 0, 0), 30.0}});
   a.receive(Envelope{1, 4.0, 5.02, ThreatReport{1, 4, 4.0, Vec3(0, 0, 0), Vec3::Zero(), 30.0}});
   const std::vector<world::Threat> known = a.known_threats();
   ASSERT_EQ(known.size(), 1u);
@@ -217,6 +218,26 @@ TEST(Agent, PassingTheLastTargetFinishesAndHolds) {
   const PredictedTrajectory p = a.prediction_message();
   ASSERT_FALSE(p.positions_m.empty());
   EXPECT_NEAR(p.positions_m.back().x(), 990.0, 1.0);
+}
+
+// A hovering UAV cannot dodge: with a known threat about to cross its last target, the agent
+// keeps tracking (and detouring) instead of holding there, and holds once the threat is gone.
+TEST(Agent, ALastTargetUnderAnApproachingThreatIsHeldOnlyAfterTheThreatHasPassed) {
+  Agent a(options(0, 1), line_east(0.0), flat());
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  std::vector<Message> outbox;
+  // 200 m north of the target, coming south at 5 m/s: over the target in 40 s (< 60 s guard).
+  const ThreatObservation coming{7, Vec3(990, 200, 100), Vec3(0, -5, 0), 30.0};
+  a.sense(0.02, std::span(&coming, 1), outbox);
+  const AgentStep step = a.control(0.02, state_at(Vec3(990, 5, 100)), Vec3::Zero());
+  EXPECT_EQ(a.targets_inspected(), 1);
+  EXPECT_NE(step.mode, AgentMode::kFinished);
+  // Later the threat is 340 m south of the UAV and moving away: nothing threatens the hold.
+  const ThreatObservation gone{7, Vec3(990, -300, 100), Vec3(0, -5, 0), 30.0};
+  a.sense(100.0, std::span(&gone, 1), outbox);
+  EXPECT_EQ(a.control(100.0, state_at(Vec3(1000, 40, 100)), Vec3::Zero()).mode,
+            AgentMode::kFinished);
+  // Without the threat the same pass finishes at once (PassingTheLastTargetFinishesAndHolds).
 }
 
 TEST(Agent, TargetsStillOpenLongAfterThePlanEndAreReportedMissed) {
