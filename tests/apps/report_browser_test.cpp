@@ -4,7 +4,8 @@
 // every plot was drawn — the 3-D view in WebGL included — and that no JavaScript error
 // happened. A copy with an error planted in it must be caught, so the check can fail. Without
 // plotly.js, `run` still writes its other outputs, warns once naming the missing file, and
-// leaves no report.html behind. `ridgeline montecarlo`'s report is checked the same way.
+// leaves no report.html behind. `ridgeline montecarlo`'s and `ridgeline experiment`'s reports
+// are checked the same way.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -171,6 +172,20 @@ TEST(MonteCarloReportInBrowser, RatesAndEveryDistributionRenderWithoutJavaScript
   ASSERT_TRUE(fs::exists(dir / "mc" / "report.html")) << slurp(dir / "mc.log");
   // The rates chart and eight histograms.
   EXPECT_EQ(browser_status(dir / "mc" / "report.html", dir), "ok: 9 plots rendered");
+  fs::remove_all(dir);
+}
+
+TEST(ExperimentReportInBrowser, FiguresThreeToFiveRenderWithoutJavaScriptErrors) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  std::ofstream(dir / "short.yaml") << kShortMission;
+  const int rc = run_cli("",
+                         "experiment --quiet --runs 1 --threads 2 --tasks northeast --scenario " +
+                             (dir / "short.yaml").string() + " --out " + (dir / "ex").string(),
+                         dir / "ex.log");
+  EXPECT_EQ(rc, 0) << slurp(dir / "ex.log");
+  ASSERT_TRUE(fs::exists(dir / "ex" / "report.html")) << slurp(dir / "ex.log");
+  // Figures 3 and 4, the tracking MSE bars and one error-vs-distance chart for the one task.
+  EXPECT_EQ(browser_status(dir / "ex" / "report.html", dir), "ok: 4 plots rendered");
   fs::remove_all(dir);
 }
 
