@@ -335,9 +335,18 @@ void register_launch_command(CLI::App& app) {
     std::vector<transport_dds::ClockTick> clocks;
     auto last_injection = Clock::now();
     bool timed_out = false;
+    bool aborted = false;  // the ground station failed
     while (!poll_exit(children[world_index])) {
       if (elapsed() > args->timeout_s) {
         timed_out = true;
+        break;
+      }
+      // The ground station failed (e.g. planning failed): nothing will fly; stop at once.
+      if (poll_exit(children[0]) &&
+          !(WIFEXITED(children[0].status) && WEXITSTATUS(children[0].status) == 0)) {
+        aborted = true;
+        std::cerr << "error: the ground station failed, see " << (logs / "ground.log").string()
+                  << '\n';
         break;
       }
       for (auto it = late_by.begin(); it != late_by.end();) {
@@ -375,7 +384,7 @@ void register_launch_command(CLI::App& app) {
       }
     }
     // The world has ended (its clock said stop): the others follow within seconds.
-    const auto grace_end = Clock::now() + std::chrono::seconds(timed_out ? 0 : 20);
+    const auto grace_end = Clock::now() + std::chrono::seconds(timed_out || aborted ? 0 : 20);
     for (Child& c : children) {
       while (!poll_exit(c) && Clock::now() < grace_end)
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -386,7 +395,7 @@ void register_launch_command(CLI::App& app) {
     }
     for (std::thread& th : threads) th.join();
 
-    bool failed = timed_out;
+    bool failed = timed_out || aborted;
     nlohmann::json processes = nlohmann::json::object();
     for (const Child& c : children) {
       processes[c.name] = describe(c);

@@ -33,9 +33,9 @@ struct WorldNodeOptions {
   bool lock_step = true;
   /// Agents to wait for before tick 0 (−1: every UAV's); the others may start late.
   int wait_for_agents = -1;
-  double start_timeout_s = 30.0;  ///< wall time to wait for them (then start anyway)
-  double answer_timeout_s = 5.0;  ///< lock-step: wall time before a silent agent is lost
-  int lost_after_periods = 25;    ///< real time: silent periods before an agent is lost
+  double start_timeout_s = 600.0;  ///< wall time to wait for them (a big team plans long)
+  double answer_timeout_s = 5.0;   ///< lock-step: wall time before a silent agent is lost
+  int lost_after_periods = 25;     ///< real time: silent periods before an agent is lost
   bool record_trajectories = true;
   /// Called about once per simulated second with (t, duration).
   std::function<void(double, double)> progress;
