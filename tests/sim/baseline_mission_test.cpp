@@ -7,37 +7,13 @@
 #include "core/error.hpp"
 #include "sim/method.hpp"
 #include "sim/mission.hpp"
+#include "support/small_mission.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::sim {
 namespace {
 
-// Two UAVs cross a hill to two targets 600 m away, wind 1.1 m/s, lossy links.
-Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain, bool with_threat) {
-  world::PeakTerrainConfig peaks;
-  peaks.peaks = {{350, 300, 60, 120, 120}};
-  terrain = std::make_shared<world::PeakTerrain>(peaks);
-  Scenario s;
-  s.name = "small";
-  s.seed = 7;
-  s.area = {0, 800, 0, 800};
-  const Vec3 starts[] = {{100, 100, 60}, {100, 150, 60}};
-  for (int i = 0; i < 2; ++i) {
-    UavSpec u;
-    u.name = "u" + std::to_string(i);
-    u.start_position_m = starts[i];
-    u.start_heading_rad = kPi / 4;
-    s.uavs.push_back(u);
-  }
-  s.targets = {{"a", Vec3(650, 550, 80), 1, 30}, {"b", Vec3(600, 650, 80), 1, 30}};
-  if (with_threat) s.threats = {{"t", Vec3(300, 500, 90), Vec3(2.0, -2.0, 0.0), 30.0, 5.0, 300.0}};
-  s.wind.mean_m_s = Vec3(1.0, 0.5, 0.0);
-  s.wind.gust_std_m_s = 0.5;
-  s.simulation.duration_s = 200.0;
-  s.simulation.link_drop_rate = 0.05;
-  EXPECT_TRUE(validate(s, *terrain).empty());
-  return s;
-}
+using test::small_scenario;
 
 class BaselineMission : public ::testing::TestWithParam<Method> {};
 

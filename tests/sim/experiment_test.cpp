@@ -9,31 +9,17 @@
 #include <set>
 
 #include "core/error.hpp"
+#include "support/small_mission.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::sim {
 namespace {
 
+// The shared small scenario (tests/support) with short flights: the shape and the seeds are
+// under test, not the missions.
 Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain) {
-  world::PeakTerrainConfig peaks;
-  peaks.peaks = {{350, 300, 60, 120, 120}};
-  terrain = std::make_shared<world::PeakTerrain>(peaks);
-  Scenario s;
-  s.name = "small";
-  s.seed = 7;
-  s.area = {0, 800, 0, 800};
-  const Vec3 starts[] = {{100, 100, 60}, {100, 150, 60}};
-  for (int i = 0; i < 2; ++i) {
-    UavSpec u;
-    u.name = "u" + std::to_string(i);
-    u.start_position_m = starts[i];
-    u.start_heading_rad = kPi / 4;
-    s.uavs.push_back(u);
-  }
-  s.targets = {{"a", Vec3(650, 550, 80), 1, 30}, {"b", Vec3(600, 650, 80), 1, 30}};
-  s.threats = {{"t", Vec3(300, 500, 90), Vec3(2.0, -2.0, 0.0), 30.0, 5.0, 300.0}};
-  s.wind.mean_m_s = Vec3(1.0, 0.5, 0.0);
-  s.simulation.duration_s = 25.0;  // short flights: the shape and the seeds are under test
+  Scenario s = test::small_scenario(terrain, true);
+  s.simulation.duration_s = 25.0;
   return s;
 }
 
