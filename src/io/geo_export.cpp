@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "io/geo_frame.hpp"
+#include "io/markup_escape.hpp"
 
 namespace ridgeline::io {
 
@@ -78,32 +79,6 @@ json lon_lat_alt(const GeoFrame& frame, const Vec3& p) {
   return json::array({g.lon_deg, g.lat_deg, g.alt_amsl_m});
 }
 
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 std::string csv_field(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
   std::string out = "\"";
@@ -124,7 +99,8 @@ std::string kml_coordinates(const GeoFrame& frame, const std::vector<Vec3>& poin
 std::string kml_data(const std::vector<std::pair<std::string, std::string>>& fields) {
   std::string out = "<ExtendedData>";
   for (const auto& [k, v] : fields)
-    out += fmt::format("<Data name=\"{}\"><value>{}</value></Data>", xml_escape(k), xml_escape(v));
+    out += fmt::format("<Data name=\"{}\"><value>{}</value></Data>", escape_markup(k),
+                       escape_markup(v));
   return out + "</ExtendedData>";
 }
 
@@ -328,11 +304,11 @@ std::string to_kml(const MissionGeometry& m) {
   std::string out =
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n";
-  out += fmt::format("<name>{}</name>\n", xml_escape(m.name));
+  out += fmt::format("<name>{}</name>\n", escape_markup(m.name));
   out += fmt::format(
       "<description>Ridgeline mission: {} per UAV, inspection targets and threat tracks; WGS 84, "
       "altitudes above mean sea level (altitudeMode absolute).</description>\n",
-      xml_escape(m.path_kind));
+      escape_markup(m.path_kind));
   for (const ExportPath& p : m.paths) {
     std::vector<std::pair<std::string, std::string>> data = {{"kind", "uav_path"}};
     if (!p.times_s.empty())
@@ -341,13 +317,13 @@ std::string to_kml(const MissionGeometry& m) {
     out += fmt::format(
         "<Placemark><name>{}</name>{}<LineString><altitudeMode>absolute</altitudeMode>"
         "<coordinates>{}</coordinates></LineString></Placemark>\n",
-        xml_escape(p.name), kml_data(data), kml_coordinates(frame, p.points_m));
+        escape_markup(p.name), kml_data(data), kml_coordinates(frame, p.points_m));
   }
   for (const sim::InspectionTarget& t : m.targets) {
     out += fmt::format(
         "<Placemark><name>{}</name>{}<Point><altitudeMode>absolute</altitudeMode>"
         "<coordinates>{}</coordinates></Point></Placemark>\n",
-        xml_escape(t.name),
+        escape_markup(t.name),
         kml_data({{"kind", "target"}, {"priority", std::to_string(t.priority)}}),
         kml_coordinates(frame, {t.position_m}));
   }
@@ -357,7 +333,7 @@ std::string to_kml(const MissionGeometry& m) {
     out += fmt::format(
         "<Placemark><name>{}</name>{}<LineString><altitudeMode>absolute</altitudeMode>"
         "<coordinates>{}</coordinates></LineString></Placemark>\n",
-        xml_escape(t.name),
+        escape_markup(t.name),
         kml_data({{"kind", "threat_path"},
                   {"appear_s", fmt::format("{}", t.appear_s)},
                   {"vanish_s", fmt::format("{}", t.vanish_s)},

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/markup_escape.hpp"
 
 namespace ridgeline::io {
 
@@ -33,33 +34,6 @@ double rounded(double value, double quantum) { return std::round(value / quantum
 
 nlohmann::json metres(double v) { return rounded(v, 0.01); }
 nlohmann::json point(const Vec3& p) { return {metres(p.x()), metres(p.y()), metres(p.z())}; }
-
-std::string escape_html(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
 
 /// Text inside <script> ends at the first "</script" (in any case) whatever the JavaScript
 /// around it means, and "<!--" changes how the HTML parser looks for that end. Writing the '<'
@@ -107,13 +81,13 @@ std::string cell(const nlohmann::json& v) {
     const double d = v.get<double>();
     return std::abs(d) >= 1000.0 ? fmt::format("{:.0f}", d) : fmt::format("{:.4g}", d);
   }
-  if (v.is_string()) return escape_html(v.get<std::string>());
+  if (v.is_string()) return escape_markup(v.get<std::string>());
   if (v.is_array()) {
     std::string out;
     for (const nlohmann::json& e : v) out += (out.empty() ? "" : ", ") + cell(e);
     return out.empty() ? "–" : out;
   }
-  return escape_html(v.dump());
+  return escape_markup(v.dump());
 }
 
 /// Every field of metrics.json: a table with a row per UAV and one of the mission's values
@@ -125,7 +99,7 @@ std::string metrics_tables(const nlohmann::json& metrics) {
   if (!uavs.empty())
     for (const auto& [key, value] : uavs.front().items())
       if (key != "name") columns.push_back(key);
-  for (const std::string& c : columns) html += "<th>" + escape_html(c) + "</th>";
+  for (const std::string& c : columns) html += "<th>" + escape_markup(c) + "</th>";
   html += "</tr>\n";
   for (const nlohmann::json& u : uavs) {
     html += "<tr>";
@@ -138,10 +112,11 @@ std::string metrics_tables(const nlohmann::json& metrics) {
     if (key == "uavs") continue;
     if (value.is_object()) {
       for (const auto& [sub, v] : value.items())
-        html += "<tr><td>" + escape_html(key + "." + sub) + "</td><td>" + cell(v) + "</td></tr>\n";
-      if (value.empty()) html += "<tr><td>" + escape_html(key) + "</td><td>none</td></tr>\n";
+        html +=
+            "<tr><td>" + escape_markup(key + "." + sub) + "</td><td>" + cell(v) + "</td></tr>\n";
+      if (value.empty()) html += "<tr><td>" + escape_markup(key) + "</td><td>none</td></tr>\n";
     } else {
-      html += "<tr><td>" + escape_html(key) + "</td><td>" + cell(value) + "</td></tr>\n";
+      html += "<tr><td>" + escape_markup(key) + "</td><td>" + cell(value) + "</td></tr>\n";
     }
   }
   return html + "</table>";
@@ -306,7 +281,7 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
 std::string mission_report_html(const MissionReportInput& input, std::string_view plotly_js,
                                 const ReportOptions& options) {
   const nlohmann::json data = mission_report_data(input, options);
-  const std::string title = escape_html(input.scenario.name);
+  const std::string title = escape_markup(input.scenario.name);
   const std::string tables = metrics_tables(data.at("metrics"));
   const std::string js = script_safe_js(plotly_js);
   const std::string json = script_safe_json(data);
@@ -367,13 +342,13 @@ std::string montecarlo_tables(const nlohmann::json& summary) {
   const nlohmann::json counts = summary.value("counts", nlohmann::json::object());
   const nlohmann::json metrics = summary.value("metrics", nlohmann::json::object());
   for (const auto& [key, value] : counts.items())
-    html += "<tr><td>" + escape_html(key) + "</td><td>" + cell(value) + "</td></tr>\n";
+    html += "<tr><td>" + escape_markup(key) + "</td><td>" + cell(value) + "</td></tr>\n";
   html += "</table>\n<table id=\"mc-metrics\">\n<tr><th>metric</th>";
   const std::array<const char*, 6> stats{"count", "min", "median", "mean", "p90", "max"};
   for (const char* stat : stats) html += fmt::format("<th>{}</th>", stat);
   html += "</tr>\n";
   for (const auto& [key, value] : metrics.items()) {
-    html += "<tr><td>" + escape_html(key) + "</td>";
+    html += "<tr><td>" + escape_markup(key) + "</td>";
     for (const char* stat : stats)
       html += "<td>" + cell(value.value(stat, nlohmann::json())) + "</td>";
     html += "</tr>\n";
@@ -396,7 +371,7 @@ std::string montecarlo_tables(const nlohmann::json& summary) {
 std::string montecarlo_report_html(const nlohmann::json& summary, const nlohmann::json& runs,
                                    std::string_view plotly_js) {
   const nlohmann::json data = montecarlo_report_data(summary, runs);
-  const std::string title = escape_html(data.at("title").get<std::string>());
+  const std::string title = escape_markup(data.at("title").get<std::string>());
   const std::string tables = montecarlo_tables(summary);
   const std::string js = script_safe_js(plotly_js);
   const std::string json = script_safe_json(data);
@@ -413,8 +388,8 @@ std::string experiment_tables(const nlohmann::json& e) {
   std::string html;
   const auto num = [](const nlohmann::json& v) { return cell(v); };
   for (const nlohmann::json& task : e.at("tasks")) {
-    html += "<h3>task " + escape_html(task.at("task").get<std::string>()) + " — " +
-            escape_html(task.value("description", "")) + "</h3>\n";
+    html += "<h3>task " + escape_markup(task.at("task").get<std::string>()) + " — " +
+            escape_markup(task.value("description", "")) + "</h3>\n";
     html +=
         "<table class=\"experiment-task\">\n<tr><th>method</th><th>plan</th><th>plan time s</th>"
         "<th>path m mean</th><th>path m std</th><th>avoidance success</th><th>encounters</th>"
@@ -422,7 +397,7 @@ std::string experiment_tables(const nlohmann::json& e) {
         "<th>separation viol.</th><th>constraint viol.</th><th>complete</th>"
         "<th>step µs median</th><th>p99</th><th>max</th></tr>\n";
     for (const auto& [name, M] : task.at("methods").items()) {
-      html += "<tr><td>" + escape_html(name) + "</td><td>" + num(M.at("plan_status")) +
+      html += "<tr><td>" + escape_markup(name) + "</td><td>" + num(M.at("plan_status")) +
               "</td><td>" + num(M.at("plan_time_s")) + "</td><td>" +
               num(M.at("path_length_m").at("mean")) + "</td><td>" +
               num(M.at("path_length_m").at("std")) + "</td><td>" +
@@ -454,7 +429,7 @@ std::string experiment_report_html(const nlohmann::json& experiment, std::string
   const std::string tables = experiment_tables(experiment);
   const std::string js = script_safe_js(plotly_js);
   const std::string json = script_safe_json(experiment);
-  return fill_template(kExperimentTemplateHtml, {{"{{TITLE}}", escape_html(title)},
+  return fill_template(kExperimentTemplateHtml, {{"{{TITLE}}", escape_markup(title)},
                                                  {"{{PLOTLY_JS}}", js},
                                                  {"{{METRICS_TABLES}}", tables},
                                                  {"{{REPORT_DATA}}", json}});
