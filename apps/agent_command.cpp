@@ -40,8 +40,8 @@ void register_agent_command(CLI::App& app) {
         nodes::run_agent_node(loaded.scenario, loaded.terrain, dds_options(args->dds), options);
     std::cout << fmt::format(
         "agent {}: {} steps, plan version {}, {} messages rejected, {} dropped "
-        "by the emulated link{}\n",
-        options.id, r.steps, r.plan_version, r.rejected, r.dropped,
+        "by the emulated link, {} lock-step waits timed out{}\n",
+        options.id, r.steps, r.plan_version, r.rejected, r.dropped, r.lock_step_timeouts,
         r.message.empty() ? "" : "; " + r.message);
     if (!r.world_stopped) {
       std::cerr << "error: agent " << options.id << ": " << r.message << '\n';

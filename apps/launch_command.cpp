@@ -9,7 +9,9 @@
 // station's re-allocations), and each process's output in DIR/logs/.
 //
 // Faults, for tests: --kill-agent I@T kills agent I's process (SIGKILL) once the world's clock
-// passes T s; --late-agent I@S starts agent I S s (wall) after the others; --link-loss and
+// passes T s; --late-agent I@S starts agent I once the world's clock passes S s (mission time,
+// so the fault is the same on a fast and a slow machine; the agent then needs some wall time to
+// start, discover the others and take its plan while the world goes on); --link-loss and
 // --link-latency-s emulate a lossy, slow UAV-to-UAV link; --inject-malformed publishes
 // malformed and out-of-range messages on every topic throughout the mission.
 // Exit 0 when the flight was safe and every process ended as expected, 4 when a safety metric
@@ -189,7 +191,8 @@ void register_launch_command(CLI::App& app) {
                   "DDS partition (default: one of this run; \"\" is ROS 2's default partition)");
   cmd->add_option("--kill-agent", args->kill,
                   "Fault: kill agent I's process at mission time T (I@T)");
-  cmd->add_option("--late-agent", args->late, "Fault: start agent I S wall seconds late (I@S)");
+  cmd->add_option("--late-agent", args->late,
+                  "Fault: start agent I once the mission clock passes S s (I@S)");
   cmd->add_option("--link-loss", args->link_loss, "Fault: loss of UAV-to-UAV messages, [0, 1]");
   cmd->add_option("--link-latency-s", args->link_latency_s,
                   "Fault: extra latency of UAV-to-UAV messages (mission time)");
@@ -320,7 +323,7 @@ void register_launch_command(CLI::App& app) {
 
     std::unique_ptr<transport_dds::SimLink> observer;
     std::shared_ptr<transport_dds::DdsParticipant> observer_participant;
-    if (!kill_at.empty()) {
+    if (!kill_at.empty() || !late_by.empty()) {
       observer_participant = std::make_shared<transport_dds::DdsParticipant>(dds_opts);
       transport_dds::SimLinkRole role;
       role.reads_clock = true;
@@ -349,19 +352,21 @@ void register_launch_command(CLI::App& app) {
                   << '\n';
         break;
       }
-      for (auto it = late_by.begin(); it != late_by.end();) {
-        if (elapsed() >= it->second) {
-          start_agent(it->first);
-          it = late_by.erase(it);
-        } else {
-          ++it;
-        }
-      }
       if (observer) {
         observer->wait(0.02);
         clocks.clear();
         observer->take(clocks);
         for (const auto& c : clocks) mission_t = std::max(mission_t, c.t_s);
+        for (auto it = late_by.begin(); it != late_by.end();) {
+          if (!clocks.empty() && mission_t >= it->second) {
+            start_agent(it->first);
+            std::cout << fmt::format("launch: started agent {} at t = {:.2f} s\n", it->first,
+                                     mission_t);
+            it = late_by.erase(it);
+          } else {
+            ++it;
+          }
+        }
         for (auto it = kill_at.begin(); it != kill_at.end();) {
           const auto child = agent_child.find(it->first);
           if (mission_t >= it->second && child != agent_child.end()) {

@@ -99,6 +99,8 @@ AgentNodeResult run_agent_node(const sim::Scenario& scenario,
   latest_clock.lock_step = false;  // until the world's first tick says otherwise
   std::vector<swarm::Envelope> inbox;
   std::vector<swarm::Message> outbox;
+  // Per neighbour: threat reports it sent that this agent will never receive (lock-step).
+  std::vector<std::int64_t> reports_never_coming(static_cast<std::size_t>(n), 0);
   for (;;) {
     if (first && seconds_since(last_hello) > 0.1) {
       link.publish(hello);
@@ -126,6 +128,7 @@ AgentNodeResult run_agent_node(const sim::Scenario& scenario,
       }
       continue;
     }
+    const bool joining = first && measurements.back().tick > 0;
     first = false;
     last_heard = Clock::now();
     // Behind (real time): only the newest measurement is worth answering.
@@ -135,13 +138,21 @@ AgentNodeResult run_agent_node(const sim::Scenario& scenario,
       // Lock-step: the clock of this tick says which neighbours answered the previous one and
       // what they had published by then; wait for it all (bounded: a sample lost on the way
       // costs a wait, never a deadlock), so the run does not depend on delivery timing.
+      auto missing_reports = [&](std::size_t k) {
+        const int j = latest_clock.answered[k];
+        return latest_clock.reports_sent[k] -
+               (transport.reports_taken(j) + reports_never_coming[static_cast<std::size_t>(j)]);
+      };
       auto complete = [&] {
         if (latest_clock.tick < m.tick) return false;
+        // Joining a running mission: what the neighbours sent before this agent's readers
+        // matched can never arrive (volatile durability), so only the clock is awaited.
+        if (joining) return true;
         for (std::size_t k = 0; k < latest_clock.answered.size(); ++k) {
           const int j = latest_clock.answered[k];
           if (j == id) continue;
           if (transport.newest_prediction_stamp(j) < latest_clock.prediction_stamps[k] ||
-              transport.reports_taken(j) < latest_clock.reports_sent[k])
+              missing_reports(k) > 0)
             return false;
         }
         return true;
@@ -156,6 +167,14 @@ AgentNodeResult run_agent_node(const sim::Scenario& scenario,
         if (!complete()) std::this_thread::sleep_for(std::chrono::microseconds(20));
       }
       if (!complete()) ++result.lock_step_timeouts;
+      // From here on, wait only for reports sent after this point: a report that did not come
+      // (sent before this agent joined, or lost) must cost one wait, not one every tick.
+      if (latest_clock.tick >= m.tick)
+        for (std::size_t k = 0; k < latest_clock.answered.size(); ++k) {
+          const int j = latest_clock.answered[k];
+          if (j != id && missing_reports(k) > 0)
+            reports_never_coming[static_cast<std::size_t>(j)] += missing_reports(k);
+        }
     }
 
     received.clear();
