@@ -26,6 +26,7 @@ void register_ground_command(CLI::App& app);
 void register_launch_command(CLI::App& app);
 void register_export_command(CLI::App& app);
 void register_experiment_command(CLI::App& app);
+void register_train_command(CLI::App& app);
 
 inline std::vector<CommandRegistrar> all_commands() {
   return {register_scenario_command, register_validate_command, register_run_command,
@@ -33,7 +34,7 @@ inline std::vector<CommandRegistrar> all_commands() {
           register_bench_command, register_montecarlo_command, register_vehicle_sim_command,
           register_fly_command, register_export_command, register_experiment_command,
           register_world_command, register_agent_command, register_ground_command,
-          register_launch_command};
+          register_launch_command, register_train_command};
 }
 
 /// Exit code the chosen subcommand asks for (0 unless it called set_exit_code).

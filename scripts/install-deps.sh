@@ -15,6 +15,7 @@ packages=(
   libcli11-dev             # command line
   libspdlog-dev libfmt-dev # logging, formatting
   cyclonedds-dev cyclonedds-tools  # DDS transport between processes (library; idlc, ddsperf)
+  libtorch-dev             # DDPG comparison method (src/learning): training and --method ddpg
   libgtest-dev libgmock-dev libbenchmark-dev
 )
 # With --test (make test), also what only the tests use.
