@@ -14,6 +14,7 @@
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
+#include "apps/mavlink_team.hpp"
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
 #include "mavlink/udp_session.hpp"
@@ -63,6 +64,7 @@ void register_fly_command(CLI::App& app) {
     mavlink::OffboardPilotOptions o;
     o.tracker = sim::make_tracker_options(sc, uav);
     o.flight_duration_s = args->duration_s.value_or(reference->end_time_s());
+    o.home_altitude_m = home_altitude_m(sc);
     mavlink::OffboardPilot pilot(o, reference, loaded.terrain);
     mavlink::UdpLink link = mavlink::UdpLink::connect(host, port);
     std::cerr << fmt::format("fly: {} ({}) over MAVLink to {}:{} for {:.1f} s\n", uav.name,

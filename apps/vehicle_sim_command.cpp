@@ -4,8 +4,16 @@
 // with RK4 at the scenario's truth rate and its model mismatch (lags truth_time_constant_scale
 // times the controller's) from the velocity + yaw-rate setpoints it receives in offboard mode,
 // and reports LOCAL_POSITION_NED and ATTITUDE at 50 Hz and HEARTBEAT at 1 Hz to whoever sent
-// to it last. No wind. Runs until --duration has passed (default: until SIGINT/SIGTERM), then
-// prints what it received.
+// to it last. No wind unless --wind (the scenario's seeded field, the mission truth's). Its local
+// NED frame is centred on the home position: with a geodetic origin, the origin's altitude
+// (apps/mavlink_team.hpp). Runs until --duration has passed (default: until SIGINT/SIGTERM),
+// then prints what it received.
+//
+// --lockstep: the clock advances one control period (the scenario's mpc.control_period_s) per
+// setpoint stamped with its time, as `ridgeline run --mavlink` drives it (SimulatedVehicle's
+// lock step); --peer HOST:PORT: where it announces itself until a companion talks to it;
+// --udp 0 takes any free port (printed); --cruise-start: it leaves the hover at the scenario's
+// start speed when offboard starts, as the mission's truth starts a UAV.
 #include <csignal>
 #include <iostream>
 
@@ -13,6 +21,7 @@
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
+#include "apps/mavlink_team.hpp"
 #include "core/error.hpp"
 #include "mavlink/udp_session.hpp"
 
@@ -30,19 +39,39 @@ void register_vehicle_sim_command(CLI::App& app) {
     int uav = 0;
     std::string scenario;
     double duration_s = 0.0;
+    bool lockstep = false;
+    bool wind = false;
+    bool cruise_start = false;
+    std::string peer;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "vehicle-sim", "A MAVLink vehicle on 127.0.0.1 UDP for `ridgeline fly` (stand-in for PX4 SITL)");
-  cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1)")->required();
+  cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1; 0: any free port)")
+      ->required();
+  cmd->add_flag("--lockstep", args->lockstep,
+                "Lock step: advance one control period per setpoint stamped with its time");
+  cmd->add_option("--peer", args->peer, "HOST:PORT to announce itself to until a companion talks");
+  cmd->add_flag("--wind", args->wind, "Drift with the scenario's wind field (the mission truth's)");
+  cmd->add_flag("--cruise-start", args->cruise_start,
+                "Enter offboard at the scenario's start speed (as the mission's truth starts)");
   cmd->add_option("--uav", args->uav, "Index of the scenario's UAV whose start it takes (from 0)")
       ->capture_default_str();
   cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   cmd->add_option("--duration", args->duration_s, "Seconds to run (0: until interrupted)")
       ->capture_default_str();
   cmd->callback([args] {
-    if (args->port < 1 || args->port > 65535)
-      throw InputError("--udp", fmt::format("port {} is not in 1..65535", args->port));
+    if (args->port < 0 || args->port > 65535)
+      throw InputError("--udp",
+                       fmt::format("port {} is not in 1..65535 (or 0: any free port)", args->port));
+    std::optional<std::pair<std::string, std::uint16_t>> peer;
+    if (!args->peer.empty()) {
+      try {
+        peer = mavlink::parse_host_port(args->peer);
+      } catch (const InputError& e) {
+        throw InputError("--peer", e.reason());
+      }
+    }
     if (!(args->duration_s >= 0.0))
       throw InputError("--duration", fmt::format("{} s is negative", args->duration_s));
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
@@ -61,21 +90,31 @@ void register_vehicle_sim_command(CLI::App& app) {
     o.initial_state = vehicle::State::Zero();
     o.initial_state.head<3>() = uav.start_position_m;
     o.initial_state[vehicle::kPsi] = uav.start_heading_rad;
+    o.home_altitude_m = home_altitude_m(sc);
+    if (args->wind) o.wind = sc.wind;
+    if (args->cruise_start) o.offboard_entry_speed_m_s = uav.start_speed_m_s;
     mavlink::SimulatedVehicle vehicle(o);
     mavlink::UdpLink link =
         mavlink::UdpLink::listen("127.0.0.1", static_cast<std::uint16_t>(args->port));
+    if (peer) link.set_peer(peer->first, peer->second);
     std::signal(SIGINT, request_stop);
     std::signal(SIGTERM, request_stop);
-    std::cerr << fmt::format("vehicle-sim: {} ({}) listening on 127.0.0.1:{}\n", uav.name,
-                             args->uav, args->port);
-    const mavlink::SessionReport r = mavlink::serve_vehicle(vehicle, link, args->duration_s, g_stop);
+    std::cerr << fmt::format("vehicle-sim: {} ({}) listening on 127.0.0.1:{}{}\n", uav.name,
+                             args->uav, link.local_port(),
+                             args->lockstep ? " in lock step" : "");
+    const mavlink::SessionReport r =
+        args->lockstep ? mavlink::serve_vehicle_lockstep(vehicle, link, sc.mpc.control_period_s,
+                                                         args->duration_s, g_stop)
+                       : mavlink::serve_vehicle(vehicle, link, args->duration_s, g_stop);
     const mavlink::SimulatedVehicleStats& s = vehicle.stats();
     std::cout << fmt::format(
         "vehicle-sim: {:.1f} s; received {} frames ({} rejected by the parser), {} setpoints "
-        "({} refused), {} commands ({} refused), {} offboard timeouts; sent {} frames; final "
-        "position ENU ({:.1f}, {:.1f}, {:.1f}) m{}\n",
+        "({} refused), {} commands ({} refused), {} offboard timeouts; {} lock-step steps ({} "
+        "resent, {} out of step); sent {} frames; final position ENU ({:.1f}, {:.1f}, {:.1f}) "
+        "m{}\n",
         r.wall_time_s, r.parser.accepted(), r.parser.rejected(), s.setpoints, s.setpoints_rejected,
-        s.commands, s.commands_refused, s.offboard_timeouts, r.frames_sent,
+        s.commands, s.commands_refused, s.offboard_timeouts, s.lockstep_steps,
+        s.lockstep_duplicates, s.lockstep_out_of_step, r.frames_sent,
         vehicle.state()[vehicle::kX], vehicle.state()[vehicle::kY], vehicle.state()[vehicle::kZ],
         s.last_error.empty() ? "" : "; last refusal: " + s.last_error);
   });

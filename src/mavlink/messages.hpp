@@ -64,6 +64,10 @@ enum PositionTargetIgnore : std::uint16_t {
 /// Velocity and yaw rate only: what the tracker commands.
 constexpr std::uint16_t kTypeMaskVelocityYawRate =
     kIgnoreX | kIgnoreY | kIgnoreZ | kIgnoreAx | kIgnoreAy | kIgnoreAz | kIgnoreYaw;
+/// Position only: how the companion tells the vehicle to stop and hold (a finished UAV).
+constexpr std::uint16_t kTypeMaskPositionHold = kIgnoreVx | kIgnoreVy | kIgnoreVz | kIgnoreAx |
+                                                kIgnoreAy | kIgnoreAz | kIgnoreYaw |
+                                                kIgnoreYawRate;
 
 /// HEARTBEAT (0): who is there and in which state; sent at 1 Hz by every component.
 struct Heartbeat {

@@ -76,7 +76,7 @@ void OffboardPilot::tick(double t_s, std::vector<EncodedFrame>& out) {
     next_heartbeat_s_ = t_s + o_.heartbeat_period_s;
   }
   if (!have_position_ || !have_attitude_) return;
-  const vehicle::State state = state_from_report(position_, attitude_);
+  const vehicle::State state = state_from_report(position_, attitude_, o_.home_altitude_m);
   const std::uint32_t ms = static_cast<std::uint32_t>(std::llround((t_s - first_tick_s_) * 1e3));
 
   if (phase_ == PilotPhase::kFlying && (!vehicle_armed_ || !vehicle_offboard_)) {

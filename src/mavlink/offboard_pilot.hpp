@@ -36,6 +36,7 @@ struct OffboardPilotOptions {
   double heartbeat_period_s = 1.0;
   double command_retry_s = 0.5;
   double state_timeout_s = 0.5;  ///< a step on a state older than this is counted as stale
+  double home_altitude_m = 0.0;  ///< z of the vehicle's local NED origin (ned_frame.hpp)
   std::uint8_t system_id = 1;
   std::uint8_t component_id = 191;  ///< MAV_COMP_ID_ONBOARD_COMPUTER
   std::uint8_t target_system = 1;

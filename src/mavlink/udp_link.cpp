@@ -77,6 +77,18 @@ UdpLink UdpLink::connect(const std::string& host, std::uint16_t port) {
   return link;
 }
 
+void UdpLink::set_peer(const std::string& host, std::uint16_t port) {
+  peer_ = resolve(host, port);
+  has_peer_ = true;
+}
+
+std::string UdpLink::peer_text() const {
+  if (!has_peer_) return "(no peer yet)";
+  char text[INET_ADDRSTRLEN] = {};
+  ::inet_ntop(AF_INET, &peer_.sin_addr, text, sizeof(text));
+  return fmt::format("{}:{}", text, ntohs(peer_.sin_port));
+}
+
 UdpLink::UdpLink(UdpLink&& o) noexcept
     : fd_(o.fd_), peer_(o.peer_), has_peer_(o.has_peer_), follow_sender_(o.follow_sender_) {
   o.fd_ = -1;

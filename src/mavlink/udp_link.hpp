@@ -32,6 +32,13 @@ class UdpLink {
   std::vector<std::uint8_t> receive(double timeout_s);
   bool has_peer() const { return has_peer_; }
   std::uint16_t local_port() const;
+  /// Sends to host:port until a datagram arrives (listen(): then the sender is the peer).
+  /// Throws std::runtime_error when host does not resolve.
+  void set_peer(const std::string& host, std::uint16_t port);
+  /// "ADDRESS:PORT" of the peer, or "(no peer yet)".
+  std::string peer_text() const;
+  /// The socket, for poll() over several links; owned by the link.
+  int native_handle() const { return fd_; }
 
  private:
   UdpLink() = default;

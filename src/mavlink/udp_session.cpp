@@ -61,6 +61,46 @@ SessionReport serve_vehicle(SimulatedVehicle& vehicle, UdpLink& link, double dur
   return report;
 }
 
+SessionReport serve_vehicle_lockstep(SimulatedVehicle& vehicle, UdpLink& link, double period_s,
+                                     double duration_s, const std::atomic<bool>& stop) {
+  SessionReport report;
+  StreamParser parser;
+  std::vector<EncodedFrame> out;
+  std::vector<std::uint8_t> datagram;
+  const Clock::time_point start = Clock::now();
+  constexpr double kAnnouncePeriodS = 0.5;
+  bool heard = false;
+  double next_announce = 0.0;
+  while (!stop.load() && (duration_s <= 0.0 || seconds_since(start) < duration_s)) {
+    if (!heard && seconds_since(start) >= next_announce && link.has_peer()) {
+      std::vector<EncodedFrame> hello;
+      vehicle.lockstep_reply(hello);  // its heartbeat and where it is
+      send_all(link, hello, report);
+      next_announce = seconds_since(start) + kAnnouncePeriodS;
+    }
+    // Short waits keep `stop` and the duration responsive; lock step never waits on a clock.
+    const std::vector<std::uint8_t> in = link.receive(0.1);
+    if (in.empty()) continue;
+    heard = true;
+    parser.push(in, [&](const Frame& frame) {
+      const std::optional<Message> m = decode_message(frame);
+      if (m) vehicle.handle_lockstep(*m, period_s);
+      else ++report.messages_ignored;
+    });
+    vehicle.lockstep_reply(out);
+    datagram.clear();
+    for (const EncodedFrame& f : out) {
+      const std::span<const std::uint8_t> b = f.view();
+      datagram.insert(datagram.end(), b.begin(), b.end());
+    }
+    if (link.send(datagram)) report.frames_sent += out.size();
+    out.clear();
+  }
+  report.parser = parser.stats();
+  report.wall_time_s = seconds_since(start);
+  return report;
+}
+
 SessionReport fly_pilot(OffboardPilot& pilot, UdpLink& link, double control_period_s,
                         double start_timeout_s, const std::atomic<bool>& stop) {
   SessionReport report;

@@ -25,6 +25,14 @@ struct SessionReport {
 SessionReport serve_vehicle(SimulatedVehicle& vehicle, UdpLink& link, double duration_s,
                             const std::atomic<bool>& stop);
 
+/// Serves the vehicle in lock step (SimulatedVehicle::handle_lockstep, period_s a step):
+/// every datagram received is answered with one datagram holding lockstep_reply()'s frames.
+/// Until the first datagram arrives, a HEARTBEAT goes to the link's peer (set_peer) every
+/// 0.5 s, so a companion listening there learns where the vehicle is. Runs until duration_s
+/// of wall time has passed (≤ 0: forever) or `stop` becomes true.
+SessionReport serve_vehicle_lockstep(SimulatedVehicle& vehicle, UdpLink& link, double period_s,
+                                     double duration_s, const std::atomic<bool>& stop);
+
 /// Flies until the pilot is done. Throws std::runtime_error when the vehicle does not reach
 /// offboard within `start_timeout_s` (the reason names the phase it was stuck in).
 SessionReport fly_pilot(OffboardPilot& pilot, UdpLink& link, double control_period_s,

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <set>
 #include <utility>
 
@@ -35,6 +36,19 @@ struct UavTally {
   bool hit_terrain = false;
   double max_slack_m = 0.0;
 };
+
+/// The truth's state of an external vehicle from its report: the model's airspeed along the
+/// heading and climb rate are the reported ground velocity less the truth's wind (eq. 1).
+vehicle::State state_from_vehicle(const VehicleReport& r, const Vec3& wind_m_s) {
+  vehicle::State s = vehicle::State::Zero();
+  s.head<3>() = r.position_m;
+  s[vehicle::kPsi] = r.heading_rad;
+  s[vehicle::kOmega] = r.turn_rate_rad_s;
+  const Vec3 air = r.ground_velocity_m_s - wind_m_s;
+  s[vehicle::kV] = air.x() * std::cos(r.heading_rad) + air.y() * std::sin(r.heading_rad);
+  s[vehicle::kW] = air.z();
+  return s;
+}
 
 }  // namespace
 
@@ -170,6 +184,47 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     }
   }
 
+  // External vehicles: the truth's states come from their reports (applied when the mission
+  // reaches the time they were reported for); a finished UAV's vehicle is told to hold.
+  ExternalVehicles* const vehicles = options.vehicles;
+  std::vector<VehicleReport> reports;
+  std::vector<VehicleCommand> vehicle_commands(static_cast<std::size_t>(n));
+  double reports_time_s = 0.0;
+  bool reports_pending = false;
+  auto apply_reports = [&] {
+    for (int i = 0; i < n; ++i) {
+      const VehicleReport& r = reports[static_cast<std::size_t>(i)];
+      if (world.holding(i)) {
+        vehicle::State s = world.true_state(i);
+        s.head<3>() = r.position_m;
+        world.set_state(i, s);
+      } else {
+        world.set_state(i, state_from_vehicle(r, world.wind().at(r.position_m, world.time_s())));
+      }
+    }
+    reports_pending = false;
+  };
+  if (vehicles != nullptr) {
+    world.set_external_dynamics();
+    vehicles->start(reports);
+    if (reports.size() != static_cast<std::size_t>(n))
+      throw std::runtime_error(fmt::format("external vehicles: {} reports for {} UAVs",
+                                           reports.size(), n));
+    for (int i = 0; i < n; ++i) {
+      // A vehicle elsewhere than its UAV's start flies another mission (another scenario,
+      // UAV index or home altitude): refuse it rather than measure a different flight.
+      const Vec3 start = scenario.uavs[static_cast<std::size_t>(i)].start_position_m;
+      const Vec3 at = reports[static_cast<std::size_t>(i)].position_m;
+      if ((at - start).norm() > 1.0)
+        throw std::runtime_error(fmt::format(
+            "{}: its vehicle starts at ({:.1f}, {:.1f}, {:.1f}) m, not at the scenario's start "
+            "({:.1f}, {:.1f}, {:.1f}) m (another scenario, UAV or home altitude?)",
+            scenario.uavs[static_cast<std::size_t>(i)].name, at.x(), at.y(), at.z(), start.x(),
+            start.y(), start.z()));
+    }
+    apply_reports();
+  }
+
   MissionResult result;
   MissionMetrics& m = result.metrics;
   m.global_plan_s = plan.total_time_s;
@@ -191,12 +246,14 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   std::vector<int> sensed;
   std::vector<swarm::ThreatObservation> observations;
   double next_control_s = 0.0;
+  long long control_steps = 0;
   double next_progress_s = 0.0;
   double t = 0.0;
   for (long long tick = 0;; ++tick) {
     t = static_cast<double>(tick) * tick_s;
     if (t > duration + 1e-9) break;
     world.advance_to(t);
+    if (reports_pending && t >= reports_time_s - 1e-9) apply_reports();
     if (options.progress && t >= next_progress_s) {
       options.progress(t, duration);
       next_progress_s += 1.0;
@@ -234,8 +291,10 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
             world.hold(i);
             finish_time[static_cast<std::size_t>(i)] = t;
           }
+          vehicle_commands[static_cast<std::size_t>(i)].hold = true;
         } else {
           world.set_command(i, step.command);
+          vehicle_commands[static_cast<std::size_t>(i)] = {step.command, false};
           if (step.tracker != nullptr) {
             step_us.push_back(step.tracker->step_time_us);
             step_cpu_us.push_back(step.tracker->step_cpu_time_us);
@@ -278,6 +337,12 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
               {t, i, p, step.reference_m, s[vehicle::kV], s[vehicle::kPsi], s[vehicle::kW]});
         }
       }
+      if (vehicles != nullptr) {
+        vehicles->step(control_steps, t, vehicle_commands, reports);
+        reports_time_s = t + control_s;
+        reports_pending = true;
+      }
+      ++control_steps;
     }
 
     // Broadcast (every tick) and the truth's distances (every tick).

@@ -19,6 +19,7 @@
 
 #include "mpc/uav_tracker.hpp"
 #include "planning/global_planner.hpp"
+#include "sim/external_vehicles.hpp"
 #include "sim/method.hpp"
 #include "sim/mission_metrics.hpp"
 #include "sim/scenario.hpp"
@@ -44,6 +45,12 @@ struct MissionOptions {
   Method method = Method::kProposed;
   /// Called about once per simulated second with (t, duration).
   std::function<void(double, double)> progress;
+  /// When set, the UAVs fly in these vehicles (e.g. MAVLink vehicle processes) instead of the
+  /// truth world's RK4; every control period each gets its UAV's command and reports its state
+  /// (sim/external_vehicles.hpp). The truth's state is then the reported one, sampled at the
+  /// control rate, with the airspeed v = (ground velocity − W)·(cos ψ, sin ψ) and w = v_z − W_z
+  /// from the truth's wind W at the reported position. Not owned.
+  ExternalVehicles* vehicles = nullptr;
 };
 
 struct MissionResult {

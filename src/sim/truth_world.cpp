@@ -61,7 +61,7 @@ void TruthWorld::advance_to(double t_s) {
       break;
     }
     for (TruthUav& u : uavs_) {
-      if (u.holding) continue;
+      if (u.holding || external_dynamics_) continue;
       // The wind is sampled at the step's start: its correlation time (seconds) is far
       // longer than the 5 ms step.
       const Vec3 w = wind_.at(u.state.head<3>(), time_s_);

@@ -39,6 +39,14 @@ class TruthWorld {
   /// model cannot describe the acceleration out of it) with its turn and climb rates zero.
   /// For a UAV whose agent started late, or a finished one given new targets.
   void release(int uav, const vehicle::Input& command);
+  /// External dynamics (sim/external_vehicles.hpp): from now on advance_to() only moves the
+  /// clock and the UAVs' states come from set_state(); threats, wind and sensors stay here.
+  void set_external_dynamics() { external_dynamics_ = true; }
+  bool external_dynamics() const { return external_dynamics_; }
+  /// A UAV's true state from its external vehicle.
+  void set_state(int uav, const vehicle::State& state) {
+    uavs_[static_cast<std::size_t>(uav)].state = state;
+  }
   /// Integrates every UAV up to time t_s with fixed RK4 steps of 1/truth_rate_hz (the last
   /// step may be shorter, so any t_s is reached exactly).
   void advance_to(double t_s);
@@ -78,6 +86,7 @@ class TruthWorld {
   double step_s_;
   double position_noise_m_;
   double time_s_ = 0.0;
+  bool external_dynamics_ = false;
   Rng position_noise_rng_;
 };
 

@@ -52,6 +52,37 @@ TEST(NedFrame, StateReportCarriesTheStateAndReadsBack) {
   EXPECT_LT((back - s).cwiseAbs().maxCoeff(), 1e-4) << back.transpose();
 }
 
+// With a geodetic origin our z is above mean sea level while PX4's local NED z is measured
+// from home: a UAV 150 m above a home at 800 m AMSL reports NED z = −150, not −950.
+TEST(NedFrame, HomeAltitudeIsTheOneOffsetBetweenOurZAndPx4LocalNedZ) {
+  EXPECT_EQ(enu_position_to_ned(Vec3(10.0, 20.0, 950.0), 800.0), Vec3(20.0, 10.0, -150.0));
+  EXPECT_EQ(ned_position_to_enu(Vec3(20.0, 10.0, -150.0), 800.0), Vec3(10.0, 20.0, 950.0));
+  // Home 0 is the plain axis swap.
+  EXPECT_EQ(enu_position_to_ned(Vec3(1.0, 2.0, 3.0), 0.0), enu_to_ned(Vec3(1.0, 2.0, 3.0)));
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> coord(-5000.0, 5000.0), home(-400.0, 4000.0);
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3 p(coord(rng), coord(rng), coord(rng));
+    const double h = home(rng);
+    EXPECT_LT((ned_position_to_enu(enu_position_to_ned(p, h), h) - p).norm(), 1e-9);
+    EXPECT_NEAR(enu_position_to_ned(p, h).z(), h - p.z(), 1e-9);  // z_ned = −(z − h_home)
+  }
+  // Through the messages: the state report and a hold setpoint carry the offset both ways.
+  vehicle::State s;
+  s << 100.0, 200.0, 950.0, 0.3, 10.0, 0.0, 0.0;
+  const StateReport r = report_state(s, Vec3::Zero(), 0, 800.0);
+  EXPECT_FLOAT_EQ(r.position.z, -150.0f);
+  EXPECT_NEAR(state_from_report(r.position, r.attitude, 800.0)[vehicle::kZ], 950.0, 1e-4);
+  EXPECT_NEAR(state_from_report(r.position, r.attitude)[vehicle::kZ], 150.0, 1e-4);  // home 0
+  const SetPositionTargetLocalNed hold = hold_setpoint(Vec3(100.0, 200.0, 950.0), 800.0, 5, 1, 1);
+  EXPECT_EQ(hold.type_mask, kTypeMaskPositionHold);
+  EXPECT_FLOAT_EQ(hold.z, -150.0f);
+  const SetpointCommand c = command_from_setpoint(hold, 800.0);
+  ASSERT_TRUE(c.hold_position_enu_m.has_value()) << c.error;
+  EXPECT_FALSE(c.command.has_value());
+  EXPECT_LT((*c.hold_position_enu_m - Vec3(100.0, 200.0, 950.0)).norm(), 1e-4);
+}
+
 TEST(NedFrame, VelocitySetpointCarriesTheCommandAndReadsBack) {
   const vehicle::Input u(12.0, -0.3, 2.0);  // 12 m/s, turning right, climbing
   const double psi = deg_to_rad(200.0);

@@ -1,0 +1,176 @@
+// `ridgeline run --mavlink`: the whole team flown through `ridgeline vehicle-sim --lockstep`
+// processes over UDP on loopback. A shortened default mission (the scenario with
+// simulation.duration_s cut to 60 s, threats t1 and t2 already out and sensed) flown both ways must
+// give the in-process run's metrics: the world model (threats, wind, sensors, metrics) is the
+// same, the vehicles integrate the same RK4 in the same wind field, so only float32 on the wire
+// and the metrics' sampling (the control rate instead of the message rate) differ. Bad options
+// and a vehicle that never answers are one clear error each, with nothing written.
+// Every vehicle takes a port the system chooses (port 0) and announces itself to the
+// companion's own free port, so parallel runs never collide.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <string>
+
+#include "mavlink/udp_link.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+int run_cli(const std::string& args, const fs::path& log) {
+  // `timeout` guards the test against a hang whatever the program does (it has its own).
+  const std::string cmd = "timeout -k 5 300 " + std::string(RIDGELINE_CLI_PATH) + " " + args +
+                          " >" + log.string() + " 2>&1 </dev/null";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+json read_json(const fs::path& p) { return json::parse(slurp(p)); }
+
+/// The default scenario with its mission cut to `duration_s` seconds.
+fs::path short_default_scenario(const fs::path& dir, int duration_s) {
+  EXPECT_EQ(run_cli("scenario default", dir / "default.yaml"), 0);
+  const std::string text =
+      std::regex_replace(slurp(dir / "default.yaml"), std::regex("duration_s: 600"),
+                         "duration_s: " + std::to_string(duration_s));
+  EXPECT_NE(text.find("duration_s: " + std::to_string(duration_s)), std::string::npos);
+  const fs::path p = dir / "short.yaml";
+  std::ofstream(p) << text;
+  return p;
+}
+
+double relative(double a, double b) { return std::abs(a - b) / std::max(std::abs(a), 1e-12); }
+
+TEST(RunMavlink, AShortenedMissionThroughVehicleSimProcessesMatchesTheInProcessRun) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const fs::path scenario = short_default_scenario(dir, 60);
+  ASSERT_EQ(
+      run_cli("run --quiet --scenario " + scenario.string() + " --out " + (dir / "run").string(),
+              dir / "run.log"),
+      0)
+      << slurp(dir / "run.log");
+  ASSERT_EQ(run_cli("run --quiet --mavlink --scenario " + scenario.string() + " --out " +
+                        (dir / "mav").string(),
+                    dir / "mav.log"),
+            0)
+      << slurp(dir / "mav.log");
+  for (const char* f : {"metrics.json", "trajectories.csv", "plan.json", "summary.json"})
+    EXPECT_TRUE(fs::exists(dir / "mav" / f)) << f;
+  const json a = read_json(dir / "run" / "metrics.json");
+  const json b = read_json(dir / "mav" / "metrics.json");
+
+  // Zero collisions of any kind, as in the in-process run.
+  EXPECT_TRUE(b["safe"].get<bool>());
+  for (const char* key : {"terrain_collisions", "separation_violations", "threat_intrusions"})
+    EXPECT_EQ(b[key].get<int>(), 0) << key;
+  for (const auto& [kind, count] : b["constraint_violations"].items())
+    EXPECT_EQ(count.get<int>(), 0) << kind;
+  EXPECT_EQ(a["sim_time_s"], b["sim_time_s"]);
+  EXPECT_NEAR(b["sim_time_s"].get<double>(), 60.0, 0.02);
+  EXPECT_EQ(a["threat_encounters"], b["threat_encounters"]);
+  EXPECT_GT(b["threat_encounters"].get<int>(), 0);  // sensed threats by 60 s
+
+  // The issue asks for 5 %; the flights agree far closer. Float32 on the wire and the UAV's
+  // position sampled at 50 Hz instead of 100 Hz cost ~1e-6 relative on path length and
+  // separation (the measured default mission: < 4e-7) and up to ~1e-3 on the closest threat
+  // approach (a minimum over a faster relative motion; measured 8e-4); tracking MSE sums
+  // squares of sub-metre errors, measured 6e-6.
+  EXPECT_LT(relative(a["min_separation_m"], b["min_separation_m"]), 1e-4);
+  EXPECT_LT(relative(a["min_threat_distance_m"], b["min_threat_distance_m"]), 5e-3);
+  ASSERT_EQ(a["uavs"].size(), 3u);
+  ASSERT_EQ(b["uavs"].size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const json& ua = a["uavs"][i];
+    const json& ub = b["uavs"][i];
+    EXPECT_LT(relative(ua["path_length_m"], ub["path_length_m"]), 1e-4) << i;
+    EXPECT_LT(relative(ua["tracking_mse_m2"], ub["tracking_mse_m2"]), 1e-2) << i;
+    EXPECT_LT(relative(ua["min_terrain_clearance_m"], ub["min_terrain_clearance_m"]), 1e-4) << i;
+    EXPECT_EQ(ua["replans"], ub["replans"]) << i;
+    EXPECT_EQ(ua["tracking_samples"], ub["tracking_samples"]) << i;
+  }
+
+  // The MAVLink block: every vehicle stepped once per control period of the 60 s, answered
+  // every frame cleanly and exited when told to.
+  const json& m = b["mavlink"];
+  EXPECT_EQ(m["mode"], "lock-step");
+  EXPECT_EQ(m["frames_rejected"].get<int>(), 0);
+  EXPECT_EQ(m["checksum_errors"].get<int>(), 0);
+  EXPECT_EQ(m["home_altitude_m"].get<double>(), 0.0);
+  ASSERT_EQ(m["vehicles"].size(), 3u);
+  for (const json& v : m["vehicles"]) {
+    EXPECT_EQ(v["steps"].get<int>(), 60 * 50 + 1) << v;  // control steps at t = 0 .. 60 s
+    EXPECT_EQ(v["process"], "exit 0") << v;
+    // Each answer is HEARTBEAT + LOCAL_POSITION_NED + ATTITUDE.
+    EXPECT_GE(v["frames_received"].get<int>(), 3 * v["steps"].get<int>()) << v;
+    EXPECT_GT(v["round_trip_us"]["median"].get<double>(), 0.0);
+  }
+  EXPECT_TRUE(fs::exists(dir / "mav" / "logs" / "vehicle-sim-uav1.log"));
+  EXPECT_NE(slurp(dir / "mav" / "logs" / "vehicle-sim-uav1.log").find("in lock step"),
+            std::string::npos);
+}
+
+TEST(RunMavlink, AVehicleThatNeverAnswersIsATimeoutNamingTheUavWithNothingWritten) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  // Bound sockets that never read: nobody answers there and no other process can take them.
+  std::vector<ridgeline::mavlink::UdpLink> silent;
+  std::string addresses;
+  for (int i = 0; i < 3; ++i) {
+    silent.push_back(ridgeline::mavlink::UdpLink::listen("127.0.0.1", 0));
+    if (i > 0) addresses += ',';
+    addresses += "127.0.0.1:";
+    addresses += std::to_string(silent.back().local_port());
+  }
+  const fs::path out = dir / "out";
+  EXPECT_EQ(run_cli("run --quiet --mavlink --mavlink-timeout 0.5 --mavlink-vehicles " + addresses +
+                        " --out " + out.string(),
+                    dir / "a.log"),
+            1);
+  const std::string log = slurp(dir / "a.log");
+  EXPECT_NE(log.find("error: uav1 (UAV 0): the MAVLink vehicle at 127.0.0.1:" +
+                     std::to_string(silent[0].local_port()) +
+                     " did not start a lock-step offboard flight within 1.5 s"),
+            std::string::npos)
+      << log;
+  for (const char* f : {"metrics.json", "trajectories.csv", "plan.json", "summary.json"})
+    EXPECT_FALSE(fs::exists(out / f)) << f;
+}
+
+TEST(RunMavlink, BadOptionsGetOneErrorNamingTheOption) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  struct Case {
+    std::string args, message;
+  };
+  const Case cases[] = {
+      {"run --mavlink-vehicles 127.0.0.1:9", "--mavlink-vehicles: needs --mavlink"},
+      {"run --mavlink --mavlink-timeout -1", "--mavlink-timeout: -1 s is not a positive number"},
+      {"run --mavlink --variation 4200001", "--variation: cannot be combined with --mavlink"},
+      {"run --mavlink --mavlink-vehicles 127.0.0.1:9,127.0.0.1:10",
+       "--mavlink-vehicles: 2 addresses for the scenario's 3 UAVs"},
+      {"run --mavlink --mavlink-vehicles 127.0.0.1:9,localhost,127.0.0.1:11",
+       "--mavlink-vehicles: 'localhost' is not HOST:PORT (e.g. 127.0.0.1:14540) (entry 1)"},
+      {"vehicle-sim --udp 0 --peer nowhere", "--peer: 'nowhere' is not HOST:PORT"},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    const fs::path log = dir / ("case" + std::to_string(k++) + ".log");
+    const bool run = c.args.rfind("run ", 0) == 0;
+    EXPECT_EQ(run_cli(c.args + (run ? " --out " + (dir / "out").string() : ""), log), 2) << c.args;
+    EXPECT_NE(slurp(log).find("error: " + c.message), std::string::npos) << slurp(log);
+  }
+  EXPECT_FALSE(fs::exists(dir / "out" / "metrics.json"));
+}
+
+}  // namespace
