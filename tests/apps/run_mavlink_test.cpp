@@ -7,15 +7,20 @@
 // and a vehicle that never answers are one clear error each, with nothing written.
 // Every vehicle takes a port the system chooses (port 0) and announces itself to the
 // companion's own free port, so parallel runs never collide.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <string>
+#include <thread>
 
 #include "mavlink/udp_link.hpp"
 #include "support/temp_dir.hpp"
@@ -50,6 +55,47 @@ fs::path short_default_scenario(const fs::path& dir, int duration_s) {
   const fs::path p = dir / "short.yaml";
   std::ofstream(p) << text;
   return p;
+}
+
+/// scripts/geo_example.sh's scenario (an EPSG:4326 valley DEM, a geodetic origin with its home
+/// at 800 m above sea level, z above mean sea level) with the mission cut to 30 s.
+fs::path short_geo_scenario(const fs::path& dir) {
+  const std::string cmd = std::string(RIDGELINE_SOURCE_DIR) + "/scripts/geo_example.sh " +
+                          (dir / "geo").string() + " >" + (dir / "geo.log").string() + " 2>&1";
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << slurp(dir / "geo.log");
+  const fs::path p = dir / "geo" / "short.yaml";
+  std::ofstream(p) << slurp(dir / "geo" / "valley.yaml") << "simulation: {duration_s: 30}\n";
+  return p;
+}
+
+/// Starts `ridgeline ARGS...` in the background with its output in `log`.
+pid_t spawn_cli(const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(RIDGELINE_CLI_PATH));
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::execv(RIDGELINE_CLI_PATH, argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+/// The port a `vehicle-sim --udp 0` prints in its log ("listening on 127.0.0.1:PORT"); 0 when
+/// it has not within 30 s.
+int announced_port(const fs::path& log) {
+  const std::regex listening("listening on 127\\.0\\.0\\.1:([0-9]+)");
+  for (int i = 0; i < 300; ++i) {
+    std::smatch m;
+    const std::string text = slurp(log);
+    if (std::regex_search(text, m, listening)) return std::stoi(m[1]);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return 0;
 }
 
 double relative(double a, double b) { return std::abs(a - b) / std::max(std::abs(a), 1e-12); }
@@ -120,6 +166,72 @@ TEST(RunMavlink, AShortenedMissionThroughVehicleSimProcessesMatchesTheInProcessR
   EXPECT_TRUE(fs::exists(dir / "mav" / "logs" / "vehicle-sim-uav1.log"));
   EXPECT_NE(slurp(dir / "mav" / "logs" / "vehicle-sim-uav1.log").find("in lock step"),
             std::string::npos);
+}
+
+// With a geodetic origin our z is above mean sea level (the UAVs fly at 900-1000 m) while the
+// vehicles' local NED is about home at 800 m: both sides take the offset from the scenario, so
+// the vehicles start where the UAVs do (checked before the flight, to 1 m) and the flight is
+// the in-process one.
+TEST(RunMavlink, AScenarioWithAGeodeticOriginFliesWithPx4LocalZAboutHome) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const fs::path scenario = short_geo_scenario(dir);
+  ASSERT_EQ(
+      run_cli("run --quiet --scenario " + scenario.string() + " --out " + (dir / "run").string(),
+              dir / "run.log"),
+      0)
+      << slurp(dir / "run.log");
+  ASSERT_EQ(run_cli("run --quiet --mavlink --scenario " + scenario.string() + " --out " +
+                        (dir / "mav").string(),
+                    dir / "mav.log"),
+            0)
+      << slurp(dir / "mav.log");
+  const json a = read_json(dir / "run" / "metrics.json");
+  const json b = read_json(dir / "mav" / "metrics.json");
+  EXPECT_EQ(b["mavlink"]["home_altitude_m"].get<double>(), 800.0);
+  EXPECT_EQ(b["terrain_collisions"].get<int>(), 0);
+  EXPECT_LT(relative(a["min_separation_m"], b["min_separation_m"]), 1e-4);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_LT(relative(a["uavs"][i]["path_length_m"], b["uavs"][i]["path_length_m"]), 1e-4);
+    EXPECT_LT(
+        relative(a["uavs"][i]["min_terrain_clearance_m"], b["uavs"][i]["min_terrain_clearance_m"]),
+        1e-4);
+  }
+  EXPECT_TRUE(fs::exists(dir / "mav" / "flight.geojson"));
+}
+
+// Vehicles the user started (--mavlink-vehicles) for another scenario (the default one: UAV 0
+// at (100, 130), 60 m above its home) are refused before the flight: read about this scenario's
+// home at 800 m AMSL, UAV 0's vehicle is at 860 m, 1.8 km from uav1's start.
+TEST(RunMavlink, VehiclesOfAnotherScenarioAreRefusedBeforeTheFlight) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const fs::path scenario = short_geo_scenario(dir);
+  std::vector<pid_t> vehicles;
+  std::string addresses;
+  for (int i = 0; i < 3; ++i) {
+    const fs::path log = dir / ("vehicle" + std::to_string(i) + ".log");
+    // At most 60 s whatever happens, so a failed test leaves no process behind.
+    vehicles.push_back(spawn_cli(
+        {"vehicle-sim", "--udp", "0", "--uav", std::to_string(i), "--lockstep", "--duration", "60"},
+        log));
+    const int port = announced_port(log);
+    ASSERT_GT(port, 0) << slurp(log);
+    if (i > 0) addresses += ',';
+    addresses += "127.0.0.1:" + std::to_string(port);
+  }
+  const int rc = run_cli("run --quiet --mavlink --mavlink-vehicles " + addresses + " --scenario " +
+                             scenario.string() + " --out " + (dir / "out").string(),
+                         dir / "run.log");
+  for (const pid_t pid : vehicles) {
+    ::kill(pid, SIGTERM);
+    ::waitpid(pid, nullptr, 0);
+  }
+  EXPECT_EQ(rc, 1);
+  const std::string log = slurp(dir / "run.log");
+  EXPECT_NE(log.find("error: uav1: its vehicle starts at (100.0, 130.0, 860.0) m, not at the "
+                     "scenario's start"),
+            std::string::npos)
+      << log;
+  EXPECT_FALSE(fs::exists(dir / "out" / "metrics.json"));
 }
 
 TEST(RunMavlink, AVehicleThatNeverAnswersIsATimeoutNamingTheUavWithNothingWritten) {
