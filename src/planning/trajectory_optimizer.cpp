@@ -8,6 +8,7 @@
 #include <map>
 #include <tuple>
 
+#include "planning/guess_deconfliction.hpp"
 #include "planning/trajectory_ipopt.hpp"
 #include "planning/trajectory_nlp.hpp"
 
@@ -40,6 +41,8 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   if (o.terrain_samples_per_segment < 0) return bad("terrain_samples_per_segment", "must be >= 0");
   if (o.separation_samples_per_step < 0) return bad("separation_samples_per_step", "must be >= 0");
   if (!finite_nonneg(o.separation_prefilter_m)) return bad("separation_prefilter_m", "must be >= 0");
+  if (!(o.guess_separation_factor >= 1.0 && std::isfinite(o.guess_separation_factor)))
+    return bad("guess_separation_factor", "must be finite and >= 1");
   if (!(o.max_turn_angle_rad > 0.0 && o.max_turn_angle_rad < kPi))
     return bad("max_turn_angle_rad", "must be in (0, pi)");
   for (auto [v, name] : {std::pair{o.pitch_penalty, "pitch_penalty"}, {o.turn_penalty, "turn_penalty"},
@@ -263,6 +266,50 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     max_index = std::max(max_index, grid[i].segments());
   }
 
+  // Separation-aware guesses (guess_deconfliction.hpp): altitude layers where the independent
+  // initial paths meet at equal times, so Ipopt starts apart instead of pulling UAVs apart.
+  if (options.deconflict_guesses && n_uav > 1) {
+    std::vector<GuessUav> guesses;
+    // A lift's ramp uses what the guess leaves of the climb limit (when it is a row) and of
+    // the pitch limit at cruise.
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      const GridUav& g = grid[i];
+      const vehicle::VehicleParams& v = problem.uavs[i].vehicle;
+      const double pitch_step_m = g.tan_max_pitch * g.nominal_length_m;
+      guesses.push_back({g.guess_m, g.fixed,
+                         climb ? std::min(g.max_climb_m, pitch_step_m) : pitch_step_m,
+                         std::clamp(v.min_speed_m_s() / v.cruise_speed_m_s, 0.0, 0.95)});
+    }
+    GuessDeconflictionOptions deconfliction;
+    deconfliction.separation_m = std::max(options.guess_separation_factor * options.separation_m,
+                                          options.separation_m + options.separation_margin_m);
+    deconfliction.max_altitude_m = options.max_altitude_m;
+    result.guess = deconflict_guesses(guesses, deconfliction);
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      GridUav& g = grid[i];
+      g.guess_m = guesses[i].guess_m;
+      g.fixed = guesses[i].fixed;
+      // A delay adds points: the speed band's lower bounds follow the new guess.
+      g.min_length_m.clear();
+      for (int k = 0; k < g.segments(); ++k) {
+        const double guess = (g.guess_m[k + 1] - g.guess_m[k]).head<2>().norm();
+        g.min_length_m.push_back(
+            std::min(problem.uavs[i].vehicle.min_speed_m_s() * dt, 0.5 * guess));
+      }
+      max_index = std::max(max_index, g.segments());
+    }
+  }
+
+  if (!options.deconflict_guesses && n_uav > 1) {
+    std::vector<GuessUav> guesses;
+    for (const GridUav& g : grid) guesses.push_back({g.guess_m, g.fixed, 1.0, 0.5});
+    result.guess.min_separation_before_m =
+        min_guess_separation(guesses, options.guess_separation_factor * options.separation_m,
+                             &result.guess.conflicts_before);
+    result.guess.min_separation_after_m = result.guess.min_separation_before_m;
+    result.guess.conflicts_after = result.guess.conflicts_before;
+  }
+
   // Points fixed at the same time (starts, targets, finished UAVs holding) must already be
   // separated: no optimization can move them (eq. 21).
   for (int a = 0; a < n_uav; ++a)
@@ -411,6 +458,28 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       // Altitude violations cannot be refined: eq. 14 is a variable bound and z is linear on a
       // segment. They can only come from Ipopt's bound relaxation and are reported as such.
     }
+    // When the dense check found a separation violation, the pairs the solution brought within
+    // the collision cost's reach D_c (or the prefilter distance, if smaller) that are not
+    // candidates yet become candidates too: the solve moved them away from their guesses, and
+    // without rows they would be found one violation a round (10 UAVs × 100 waypoints: 4 rounds
+    // and the time budget before, 2 rounds after).
+    bool separation_violated = false;
+    for (const PlanViolation& v : result.validation.violations)
+      separation_violated = separation_violated || v.kind == ViolationKind::kSeparation;
+    const double near_m = separation_violated ? std::min(options.separation_prefilter_m,
+                                                         options.collision_soft_distance_m)
+                                              : 0.0;
+    for (int a = 0; a < n_uav; ++a)
+      for (int b = a + 1; b < n_uav; ++b)
+        for (int k = 0; k <= max_index; ++k) {
+          if (candidates.count({a, b, k}) != 0) continue;
+          // A row that would start violated (within d_safe + margin) is left to the dense
+          // check: an infeasible new row at a warm start cost Ipopt hundreds of iterations.
+          const double d = step_min_distance(waypoints[a], waypoints[b], k);
+          if (d < near_m && d > options.separation_m + options.separation_margin_m + 1.0)
+            candidates[{a, b, k}] =
+                SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
+        }
     previous = waypoints;
     previous_bounds = solve.multipliers;
     previous_lambda.clear();

@@ -34,6 +34,11 @@ nlohmann::json PlanScalingRow::to_json() const {
                       {"optimizer_status", optimizer_status},
                       {"objective", objective},
                       {"initial_objective", initial_objective},
+                      {"guess",
+                       {{"min_separation_before_m", guess_separation_before_m},
+                        {"min_separation_after_m", guess_separation_after_m},
+                        {"conflicts_before", guess_conflicts_before},
+                        {"conflicts_after", guess_conflicts_after}}},
                       {"min_clearance_m", min_clearance_m},
                       {"min_separation_m", min_separation_m},
                       {"stage_s",
@@ -102,6 +107,10 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
     row.separation_rows = o.separation_rows;
     row.objective = o.objective;
     row.initial_objective = o.initial_objective;
+    row.guess_separation_before_m = o.guess.min_separation_before_m;
+    row.guess_separation_after_m = o.guess.min_separation_after_m;
+    row.guess_conflicts_before = o.guess.conflicts_before;
+    row.guess_conflicts_after = o.guess.conflicts_after;
   }
   row.min_clearance_m = plan.validation.min_terrain_clearance_m;
   row.min_separation_m = plan.validation.min_separation_m;

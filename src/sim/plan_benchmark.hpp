@@ -59,6 +59,12 @@ struct PlanScalingRow {
   std::string optimizer_message;   ///< why the optimized waypoints were not flown (or "")
   double objective = 0.0;          ///< J of eq. 24 at the optimizer's result (0 on failure)
   double initial_objective = 0.0;  ///< J at the initial paths on the same grid
+  /// The optimizer's separation-aware guess: minimum separation at equal times of the initial
+  /// paths on the grid before and after the altitude layering, and the conflicts left.
+  double guess_separation_before_m = 0.0;
+  double guess_separation_after_m = 0.0;
+  int guess_conflicts_before = 0;
+  int guess_conflicts_after = 0;
   double min_clearance_m = 0.0;    ///< dense validation of the flown references
   double min_separation_m = 0.0;
   double stage_s[5] = {};          ///< allocation, initial paths, optimization, timing, validation
