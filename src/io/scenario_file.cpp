@@ -270,6 +270,7 @@ void parse_planner(YamlMap& m, sim::PlannerConfig& p) {
     p.allocation_priority_weight = am.get_double("priority_weight", p.allocation_priority_weight);
     am.finish();
   }
+  if (auto v = m.optional("optimizer_replan")) p.optimizer_replan = v->as_bool();
   m.finish();
 }
 

@@ -98,6 +98,7 @@ swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
   o.detour.max_altitude_m = scenario.altitude.max_m;
   o.detour.max_climb_rate_m_s = uav.vehicle.max_climb_rate_m_s;
   o.detour.threat_margin_m = scenario.safety.threat_margin_m;
+  o.optimizer_replan = scenario.planner.optimizer_replan;
   return o;
 }
 
@@ -407,6 +408,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     um.finish_time_s = finish_time[static_cast<std::size_t>(i)];
     const swarm::AgentCounters& c = a.counters();
     um.replans = static_cast<long long>(c.replans);
+    um.optimizer_replans = static_cast<long long>(c.optimizer_replans);
     um.neighbour_conflicts = static_cast<long long>(c.neighbour_conflicts);
     um.replan_failures = static_cast<long long>(c.replan_failures);
     um.rejoins = static_cast<long long>(c.rejoins);

@@ -38,6 +38,7 @@ nlohmann::json to_json(const MissionMetrics& m) {
                     {"finished", u.finished},
                     {"finish_time_s", u.finish_time_s},
                     {"replans", u.replans},
+                    {"optimizer_replans", u.optimizer_replans},
                     {"neighbour_conflicts", u.neighbour_conflicts},
                     {"replan_failures", u.replan_failures},
                     {"rejoins", u.rejoins},

@@ -28,6 +28,7 @@ struct UavMetrics {
   double finish_time_s = -1.0;
   // The agent's own counters.
   long long replans = 0;
+  long long optimizer_replans = 0;    ///< of replans, made by the local optimizer
   long long neighbour_conflicts = 0;  ///< re-plans that yielded to a neighbour
   long long replan_failures = 0;
   long long rejoins = 0;

@@ -120,6 +120,11 @@ struct PlannerConfig {
   /// a larger λ spreads the targets over more UAVs (shorter mission, more total range).
   double allocation_makespan_weight = 1.0;       ///< λ ≥ 0
   double allocation_priority_weight = 0.1;       ///< β ≥ 0
+  /// On board: a UAV re-plans a threat or neighbour conflict with the local optimizer
+  /// (planning/local_replan.hpp, densely validated; the geometric detour stays the fallback)
+  /// instead of only the geometric detour (swarm::AgentOptions::optimizer_replan). YAML
+  /// `planner.optimizer_replan: true | false`.
+  bool optimizer_replan = false;
 };
 
 struct SimulationConfig {

@@ -131,6 +131,28 @@ TEST(ScenarioFile, WrongTypeIsNamed) {
               HasSubstr("uavs: expected a list"));
 }
 
+TEST(ScenarioFile, OptimizerReplanIsABooleanPlannerField) {
+  // Off by default (the default scenario says false), on when set, and anything but a boolean
+  // is one error naming the field.
+  const sim::Scenario d = load_scenario(std::string(default_scenario_yaml()), "default.yaml",
+                                        std::filesystem::temp_directory_path())
+                              .scenario;
+  EXPECT_FALSE(d.planner.optimizer_replan);
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  root["planner"]["optimizer_replan"] = true;
+  YAML::Emitter out;
+  out << root;
+  EXPECT_TRUE(load_scenario(out.c_str(), "on.yaml", std::filesystem::temp_directory_path())
+                  .scenario.planner.optimizer_replan);
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["planner"]["optimizer_replan"] = "sometimes"; }),
+              HasSubstr("planner.optimizer_replan: expected true or false"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["planner"]["optimizer_replan"] = 1.5; }),
+              HasSubstr("planner.optimizer_replan: expected true or false"));
+  EXPECT_THAT(
+      load_error([](YAML::Node& r) { r["planner"]["optimiser_replan"] = true; }),
+      HasSubstr("planner.optimiser_replan: unknown key (did you mean 'optimizer_replan'?)"));
+}
+
 TEST(ScenarioFile, NanAndInfinityAreRejected) {
   EXPECT_THAT(load_error([](YAML::Node& r) { r["wind"]["mean_m_s"][0] = ".nan"; }),
               HasSubstr("wind.mean_m_s[0]: must be a finite number"));

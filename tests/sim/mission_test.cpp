@@ -38,6 +38,26 @@ TEST(Mission, SmallMissionCompletesSafelyWithAThreatAndLossyLinks) {
   EXPECT_NEAR(static_cast<double>(r.trajectories.size()), 2.0 * steps, 4.0);
 }
 
+TEST(Mission, OptimizerReplanFromTheScenarioFliesSafely) {
+  // planner.optimizer_replan reaches the agents: with the threat crossing the routes, at least
+  // one conflict is re-planned by the local optimizer, and the flight is safe and complete.
+  Fixture f = small_mission(true);
+  f.scenario.planner.optimizer_replan = true;
+  const MissionResult r = fly_mission(f.scenario, f.terrain, f.plan);
+  const MissionMetrics& m = r.metrics;
+  EXPECT_TRUE(m.mission_complete);
+  EXPECT_TRUE(m.safe()) << to_json(m).dump(2);
+  EXPECT_EQ(m.threat_intrusions, 0);
+  EXPECT_GE(m.min_separation_m, f.scenario.safety.separation_m);
+  long long optimizer_replans = 0;
+  for (const UavMetrics& u : m.uavs) {
+    EXPECT_GE(u.min_terrain_clearance_m, f.scenario.safety.terrain_clearance_m);
+    EXPECT_LE(u.optimizer_replans, u.replans);
+    optimizer_replans += u.optimizer_replans;
+  }
+  EXPECT_GT(optimizer_replans, 0) << to_json(m).dump(2);
+}
+
 TEST(Mission, SameSeedGivesTheSameFlightAndAnotherSeedAnother) {
   Fixture f = small_mission(false);
   f.scenario.simulation.duration_s = 40.0;
