@@ -22,6 +22,22 @@ std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loa
   return std::nullopt;
 }
 
+std::string default_ddpg_model_path() { return RIDGELINE_DEFAULT_DDPG_MODEL; }
+
+void add_ddpg_model_option(CLI::App* command, std::string& path) {
+  path = default_ddpg_model_path();
+  command
+      ->add_option("--ddpg-model", path,
+                   "DDPG model of method ddpg (ridgeline train ddpg; default: the committed one)")
+      ->capture_default_str();
+}
+
+std::shared_ptr<const learning::DdpgPolicy> load_ddpg_policy_if(bool needed,
+                                                                const std::string& path) {
+  if (!needed) return nullptr;
+  return std::make_shared<const learning::DdpgPolicy>(learning::DdpgPolicy::load(path));
+}
+
 void write_report(const std::filesystem::path& dir,
                   const std::function<std::string(std::string_view plotly_js)>& build) {
   std::string plotly_js;

@@ -1,13 +1,16 @@
 // Steps several subcommands share, so each command file stays a thin shell.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 
 #include "io/scenario_file.hpp"
+#include "learning/ddpg.hpp"
 #include "planning/global_planner.hpp"
 #include "sim/method.hpp"
 
@@ -20,6 +23,15 @@ io::LoadedScenario load_scenario_argument(const std::string& path);
 /// line, sets exit code 3 and returns nothing.
 std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded,
                                                    sim::Method method = sim::Method::kProposed);
+
+/// The committed DDPG model (models/ddpg_mountain.pt in the source tree this was built from).
+std::string default_ddpg_model_path();
+/// Adds `--ddpg-model FILE` (default: default_ddpg_model_path()) to a subcommand.
+void add_ddpg_model_option(CLI::App* command, std::string& path);
+/// The DDPG policy at `path` when `needed`, else null; InputError naming the file when it is
+/// missing or not a model. Called before planning, so nothing is written on that error.
+std::shared_ptr<const learning::DdpgPolicy> load_ddpg_policy_if(bool needed,
+                                                                const std::string& path);
 
 /// Writes DIR/report.html as `build(plotly_js)` makes it, with the plotly bundle from
 /// io::plotly_js_path(). When the bundle is missing, prints one warning saying how to install

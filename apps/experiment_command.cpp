@@ -5,6 +5,7 @@
 // as charts). Exit 0 unless an input is wrong or a plan failed (3).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <iostream>
 #include <sstream>
 #include <thread>
@@ -59,6 +60,7 @@ void register_experiment_command(CLI::App& app) {
     int threads = 0;
     std::string tasks;
     std::string methods;
+    std::string ddpg_model;
     double duration_s = 0.0;
     bool quiet = false;
   };
@@ -75,7 +77,8 @@ void register_experiment_command(CLI::App& app) {
   ex->add_option("--tasks", args->tasks,
                  "Comma-separated subset of the tasks: northeast, east, crossing, far_corner");
   ex->add_option("--methods", args->methods,
-                 "Comma-separated subset of the methods: proposed, astar_dwa, wind_aware");
+                 "Comma-separated subset of the methods: proposed, astar_dwa, wind_aware, ddpg");
+  add_ddpg_model_option(ex, args->ddpg_model);
   ex->add_option("--duration", args->duration_s,
                  "Simulated seconds at most per flight (0: the scenario's duration)")
       ->check(CLI::NonNegativeNumber);
@@ -107,6 +110,10 @@ void register_experiment_command(CLI::App& app) {
       for (const std::string& name : split(args->methods))
         options.methods.push_back(sim::parse_method(name, "--methods"));
     }
+    options.ddpg_policy = load_ddpg_policy_if(
+        std::find(options.methods.begin(), options.methods.end(), sim::Method::kDdpg) !=
+            options.methods.end(),
+        args->ddpg_model);
     io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     if (args->duration_s > 0.0) loaded.scenario.simulation.duration_s = args->duration_s;
     if (!args->quiet) {

@@ -25,6 +25,7 @@ void register_montecarlo_command(CLI::App& app) {
     int threads = 0;
     bool quiet = false;
     std::string method = "proposed";
+    std::string ddpg_model;
   };
   auto args = std::make_shared<Args>();
   CLI::App* mc = app.add_subcommand("montecarlo", "Fly many randomized variations of a mission");
@@ -37,15 +38,20 @@ void register_montecarlo_command(CLI::App& app) {
   mc->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   mc->add_option("--out", args->out, "Output folder")->capture_default_str();
   mc->add_flag("--quiet", args->quiet, "No progress bar");
-  mc->add_option("--method", args->method, "proposed, astar_dwa or wind_aware (see run --help)")
+  mc->add_option("--method", args->method,
+                 "proposed, astar_dwa, wind_aware or ddpg (see run --help)")
       ->capture_default_str();
+  add_ddpg_model_option(mc, args->ddpg_model);
   mc->callback([args] {
     const sim::Method method = sim::parse_method(args->method);
+    const std::shared_ptr<const learning::DdpgPolicy> ddpg_policy =
+        load_ddpg_policy_if(method == sim::Method::kDdpg, args->ddpg_model);
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded, method);
     if (!plan) return;
     sim::MonteCarloOptions options;
     options.method = method;
+    options.ddpg_policy = ddpg_policy;
     options.runs = args->runs;
     options.threads = args->threads > 0
                           ? args->threads

@@ -67,6 +67,7 @@ void register_run_command(CLI::App& app) {
     bool quiet = false;
     std::optional<std::uint64_t> variation;
     std::string method = "proposed";
+    std::string ddpg_model;
     bool mavlink = false;
     std::vector<std::string> mavlink_vehicles;
     double mavlink_timeout_s = 10.0;
@@ -78,9 +79,11 @@ void register_run_command(CLI::App& app) {
   run->add_option("--out", args->out, "Output folder")->capture_default_str();
   run->add_flag("--quiet", args->quiet, "No progress on stderr");
   run->add_option("--method", args->method,
-                  "Who plans and flies: proposed, astar_dwa ([7] improved A* + dynamic window) or "
-                  "wind_aware ([6] wind-aware offline path + pure pursuit)")
+                  "Who plans and flies: proposed, astar_dwa ([7] improved A* + dynamic window), "
+                  "wind_aware ([6] wind-aware offline path + pure pursuit) or ddpg ([8] a DDPG "
+                  "policy, --ddpg-model)")
       ->capture_default_str();
+  add_ddpg_model_option(run, args->ddpg_model);
   run->add_option("--variation", args->variation,
                   "Fly the Monte Carlo variation with this seed (as listed by montecarlo)");
   run->add_flag("--mavlink", args->mavlink,
@@ -105,6 +108,8 @@ void register_run_command(CLI::App& app) {
       throw InputError("--mavlink-timeout",
                        fmt::format("{} s is not a positive number of seconds",
                                    args->mavlink_timeout_s));
+    const std::shared_ptr<const learning::DdpgPolicy> ddpg_policy =
+        load_ddpg_policy_if(method == sim::Method::kDdpg, args->ddpg_model);
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     nlohmann::json summary = io::summarize(loaded);
     summary["method"] = sim::to_string(method);
@@ -115,6 +120,7 @@ void register_run_command(CLI::App& app) {
 
     sim::MissionOptions options;
     options.method = method;
+    options.ddpg_policy = ddpg_policy;
     if (!args->quiet) {
       options.progress = [](double t, double duration) {
         if (static_cast<int>(t) % 10 == 0)

@@ -35,8 +35,9 @@ void register_train_command(CLI::App& app) {
     std::string out;
     std::string evaluate;
     std::string task = "mountain";
-    int hidden = 128;
+    int hidden = 64;
     int checkpoint_every = 50;
+    int noise_decay_episodes = 0;
     bool quiet = false;
   };
   auto args = std::make_shared<Args>();
@@ -58,6 +59,11 @@ void register_train_command(CLI::App& app) {
       ->check(CLI::Range(1, 4096));
   ddpg->add_option("--checkpoint-every", args->checkpoint_every,
                    "Write the model and curve every N episodes (0: only at the end)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  ddpg->add_option("--noise-decay-episodes", args->noise_decay_episodes,
+                   "Episodes over which the exploration noise decays (0: --episodes); with a "
+                   "larger value the run is the start of a longer one")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   ddpg->add_flag("--quiet", args->quiet, "No progress lines");
@@ -109,7 +115,7 @@ void register_train_command(CLI::App& app) {
                 e.success_rate_last100, e.collision_rate_last100, e.mean_return_last100,
                 e.exploration_std, trainer.environment_steps(), e.wall_time_s);
         },
-        args->checkpoint_every, write);
+        args->checkpoint_every, write, args->noise_decay_episodes);
     const learning::TrainingEpisode& last = curve.back();
     std::cout << fmt::format(
         "trained {} episodes ({} decisions, {} updates) in {:.0f} s; last 100: success {:.2f}, "

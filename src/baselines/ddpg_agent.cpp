@@ -1,5 +1,8 @@
 #include "baselines/ddpg_agent.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "core/error.hpp"
 
 namespace ridgeline::baselines {
@@ -29,6 +32,9 @@ learning::Observation DdpgAgent::observe(double t_s, const vehicle::State& state
   for (const world::Threat& th : threats())
     in.obstacles.push_back({th.centre_at(t_s), th.velocity_m_s, th.radius_m});
   for (const Neighbour& n : neighbours()) {
+    // Only a neighbour within kNeighbourRange_m is an obstacle: the policy was trained on
+    // obstacles that come and go, not on team-mates that fly beside it for the whole mission.
+    if ((n.at(t_s) - state.head<3>()).norm() - o.separation_m > kNeighbourRange_m) continue;
     const auto& pts = n.prediction.positions_m;
     const Vec3 velocity = pts.size() >= 2
                               ? Vec3((pts.back() - pts.front()) /
@@ -46,6 +52,12 @@ vehicle::Input DdpgAgent::compute(double t_s, const vehicle::State& state, const
   if (t_s >= next_decision_s_ - 0.5 * o.control_period_s) {
     held_ =
         learning::action_to_command(policy_->act(observe(t_s, state, wind_m_s)), state, o.vehicle);
+    // As the pursuit follower: the climb within 90 % of the pitch limit at the current speed,
+    // room for the speed's lag (a slowing UAV would otherwise pitch beyond θ_max).
+    const double climb_max =
+        0.9 * std::max(state[vehicle::kV], 0.0) * std::tan(o.vehicle.max_pitch_rad);
+    held_[vehicle::kClimbRateCmd] =
+        std::clamp(held_[vehicle::kClimbRateCmd], -climb_max, climb_max);
     next_decision_s_ = t_s + policy_->action_period_s();
   }
   rollout(state, last_command(), held_, wind_m_s, o.prediction_step_s, o.prediction_steps,

@@ -114,6 +114,7 @@ std::string DdpgPolicy::serialize() const {
 
 DdpgPolicy DdpgPolicy::deserialize(const std::string& bytes, const std::string& source) {
   auto impl = std::make_unique<Impl>();
+  torch::set_num_threads(1);  // tiny networks: one thread is fastest and deterministic
   try {
     std::istringstream in(bytes);
     torch::serialize::InputArchive archive;
@@ -286,7 +287,8 @@ struct DdpgTrainer::Impl {
   }
 
   TrainingEpisode run_episode(int episode, int total_episodes) {
-    const double f = total_episodes > 1 ? double(episode) / (total_episodes - 1) : 1.0;
+    const double f =
+        total_episodes > 1 ? std::min(1.0, double(episode) / (total_episodes - 1)) : 1.0;
     const double noise_std =
         options.exploration_std + f * (options.exploration_std_final - options.exploration_std);
     Observation o = environment.reset(training_episode_seed(options.seed, episodes_done));
@@ -354,12 +356,13 @@ DdpgTrainer::~DdpgTrainer() = default;
 
 std::vector<TrainingEpisode> DdpgTrainer::train(
     int episodes, const std::function<void(const TrainingEpisode&)>& progress, int checkpoint_every,
-    const std::function<void(const DdpgPolicy&)>& checkpoint) {
+    const std::function<void(const DdpgPolicy&)>& checkpoint, int noise_decay_episodes) {
   if (episodes < 1) throw InputError("episodes", "must be at least 1");
+  const int schedule = noise_decay_episodes > 0 ? noise_decay_episodes : episodes;
   torch::set_num_threads(1);
   std::vector<TrainingEpisode> curve;
   for (int e = 0; e < episodes; ++e) {
-    curve.push_back(impl_->run_episode(e, episodes));
+    curve.push_back(impl_->run_episode(e, schedule));
     if (progress) progress(curve.back());
     const bool last = e + 1 == episodes;
     if (checkpoint && (last || (checkpoint_every > 0 && (e + 1) % checkpoint_every == 0)))

@@ -26,13 +26,13 @@
 namespace ridgeline::learning {
 
 struct DdpgOptions {
-  int hidden_units = 128;  ///< per hidden layer, actor and critic
+  int hidden_units = 64;  ///< per hidden layer, actor and critic
   int hidden_layers = 2;
   double actor_learning_rate = 3e-4;
   double critic_learning_rate = 1e-3;
-  double discount = 0.99;      ///< γ per decision (0.2 s): a horizon of about 20 s
+  double discount = 0.98;      ///< γ per decision (0.4 s): a horizon of about 20 s
   double soft_update = 0.005;  ///< τ
-  int batch_size = 128;
+  int batch_size = 64;
   int replay_capacity = 300000;
   int warmup_steps = 5000;  ///< uniform random actions before the first update
   int updates_per_step = 1;
@@ -91,11 +91,14 @@ class DdpgTrainer {
   DdpgTrainer(const DdpgOptions& options, const EnvironmentOptions& environment);
   ~DdpgTrainer();
 
-  /// Trains for `episodes` more episodes. `progress` is called after every episode; every
+  /// Trains for `episodes` episodes. The exploration noise decays linearly over
+  /// `noise_decay_episodes` episodes (0: over `episodes`), so a run stopped early is the same
+  /// as the first episodes of a longer one. `progress` is called after every episode; every
   /// `checkpoint_every` episodes (and at the end) `checkpoint` gets the current policy.
   std::vector<TrainingEpisode> train(
       int episodes, const std::function<void(const TrainingEpisode&)>& progress = {},
-      int checkpoint_every = 0, const std::function<void(const DdpgPolicy&)>& checkpoint = {});
+      int checkpoint_every = 0, const std::function<void(const DdpgPolicy&)>& checkpoint = {},
+      int noise_decay_episodes = 0);
 
   /// A copy of the current actor.
   DdpgPolicy policy() const;

@@ -6,7 +6,7 @@
 // world::WindSensor, the terrain a world::PeakTerrain drawn by world::random_peaks, the
 // threats world::Threat spheres (eq. 13) sensed within the sensor range.
 //
-// Time. The policy acts every action_period_s (0.2 s); between decisions the command is
+// Time. The policy acts every action_period_s (0.4 s); between decisions the command is
 // applied as every on-board method applies it: every control_period_s (20 ms) it moves
 // towards the policy's command by at most max_command_rate·Δt (the comparison agents' rate
 // limits) and is clamped to the maneuver limits (vehicle::clamp_to_limits, eq. 2–3); the
@@ -175,7 +175,7 @@ struct EnvironmentOptions {
   double position_noise_m = 0.1;
   double control_period_s = 0.02;
   double truth_step_s = 0.01;
-  double action_period_s = 0.2;
+  double action_period_s = 0.4;
   Vec3 max_command_rate = Vec3(4.0, 1.5, 4.0);  ///< as baselines::BaselineAgentOptions
   double wind_filter_time_s = 0.5;
   double sensor_range_m = 300.0;

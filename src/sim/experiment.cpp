@@ -101,6 +101,10 @@ nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world:
   if (options.threads < 1) throw InputError("threads", "must be at least 1");
   if (options.tasks.empty()) throw InputError("tasks", "none given");
   if (options.methods.empty()) throw InputError("methods", "none given");
+  if (!options.ddpg_policy &&
+      std::find(options.methods.begin(), options.methods.end(), Method::kDdpg) !=
+          options.methods.end())
+    throw InputError("--ddpg-model", "method ddpg needs a DDPG model (none loaded)");
   if (!(options.error_bin_m > 0.0)) throw InputError("error_bin_m", "must be positive");
   const auto start = std::chrono::steady_clock::now();
   const std::size_t n_tasks = options.tasks.size(), n_methods = options.methods.size();
@@ -137,6 +141,7 @@ nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world:
               vary_scenario(scenarios[t], *terrain, out.seed, options.variation);
           MissionOptions mission;
           mission.method = options.methods[m];
+          mission.ddpg_policy = options.ddpg_policy;
           MissionResult flown = fly_mission(varied, terrain, plan, mission);
           bin_errors(flown.trajectories, static_cast<int>(varied.uavs.size()), options.error_bin_m,
                      out);

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "learning/ddpg.hpp"
 #include "sim/method.hpp"
 #include "sim/scenario.hpp"
 #include "sim/variation.hpp"
@@ -41,6 +42,8 @@ struct ExperimentOptions {
   int threads = 1;
   std::vector<ExperimentTask> tasks = default_experiment_tasks();
   std::vector<Method> methods = all_methods();
+  /// The policy of Method::kDdpg: required when `methods` holds it (shared by every flight).
+  std::shared_ptr<const learning::DdpgPolicy> ddpg_policy;
   VariationOptions variation;
   double target_height_m = 60.0;  ///< above the terrain, for targets given as fractions
   double error_bin_m = 100.0;     ///< distance bin of tracking_mse_by_distance
@@ -63,7 +66,7 @@ Scenario task_scenario(const Scenario& base, const world::Terrain& terrain,
 ///  "mse_m2": [...]}, "collisions": {terrain, threat, separation}, "constraint_violations",
 ///  "missions_complete", "control_step_us": {median, p99, max}, "wall_time_s", "runs":
 ///  [{seed, path_length_m, tracking_mse_m2, encounters, intrusions, ...}]}.
-/// Throws InputError for runs < 1, threads < 1, no tasks or no methods.
+/// Throws InputError for runs < 1, threads < 1, no tasks or no methods, or ddpg without a policy.
 nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world::Terrain> terrain,
                               const ExperimentOptions& options);
 

@@ -16,19 +16,21 @@ std::string_view to_string(Method method) {
       return "astar_dwa";
     case Method::kWindAware:
       return "wind_aware";
+    case Method::kDdpg:
+      return "ddpg";
   }
   return "unknown";
 }
 
 std::vector<Method> all_methods() {
-  return {Method::kProposed, Method::kAstarDwa, Method::kWindAware};
+  return {Method::kProposed, Method::kAstarDwa, Method::kWindAware, Method::kDdpg};
 }
 
 Method parse_method(std::string_view text, const std::string& field) {
   for (const Method m : all_methods())
     if (text == to_string(m)) return m;
   throw InputError(
-      field, fmt::format("unknown method '{}' (one of proposed, astar_dwa, wind_aware)", text));
+      field, fmt::format("unknown method '{}' (one of proposed, astar_dwa, wind_aware, ddpg)", text));
 }
 
 planning::GlobalPlan plan_for_method(const Scenario& scenario,
@@ -37,8 +39,8 @@ planning::GlobalPlan plan_for_method(const Scenario& scenario,
   const planning::GlobalPlannerOptions proposed = make_planner_options(scenario);
   if (method == Method::kProposed) return planning::plan_mission(problem, proposed);
   baselines::BaselinePlannerOptions o;
-  o.method = method == Method::kAstarDwa ? baselines::BaselinePathMethod::kImprovedAStar
-                                         : baselines::BaselinePathMethod::kWindAware;
+  o.method = method == Method::kWindAware ? baselines::BaselinePathMethod::kWindAware
+                                          : baselines::BaselinePathMethod::kImprovedAStar;
   o.allocation = proposed.allocation;
   o.cost_estimate = proposed.cost_estimate;
   o.timing = proposed.timing;

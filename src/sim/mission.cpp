@@ -14,6 +14,7 @@
 #include "core/error.hpp"
 #include "core/random.hpp"
 #include "sim/truth_world.hpp"
+#include "baselines/ddpg_agent.hpp"
 #include "baselines/dwa_agent.hpp"
 #include "baselines/pursuit_agent.hpp"
 #include "swarm/in_process_transport.hpp"
@@ -180,6 +181,13 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
       case Method::kWindAware:
         agents.push_back(std::make_unique<baselines::PursuitAgent>(
             make_baseline_agent_options(scenario, i, up), baselines::PursuitOptions{},
+            std::move(reference), terrain));
+        break;
+      case Method::kDdpg:
+        if (!options.ddpg_policy)
+          throw InputError("--ddpg-model", "method ddpg needs a DDPG model (none loaded)");
+        agents.push_back(std::make_unique<baselines::DdpgAgent>(
+            make_baseline_agent_options(scenario, i, up), options.ddpg_policy,
             std::move(reference), terrain));
         break;
     }

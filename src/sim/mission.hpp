@@ -24,6 +24,7 @@
 #include "sim/mission_metrics.hpp"
 #include "sim/scenario.hpp"
 #include "baselines/baseline_agent.hpp"
+#include "learning/ddpg.hpp"
 #include "swarm/agent.hpp"
 
 namespace ridgeline::sim {
@@ -43,6 +44,8 @@ struct MissionOptions {
   bool record_trajectories = true;
   /// Which on-board agents fly the plan (method.hpp); the plan must be that method's.
   Method method = Method::kProposed;
+  /// The policy of Method::kDdpg (required for it; shared by every UAV and read only).
+  std::shared_ptr<const learning::DdpgPolicy> ddpg_policy;
   /// Called about once per simulated second with (t, duration).
   std::function<void(double, double)> progress;
   /// When set, the UAVs fly in these vehicles (e.g. MAVLink vehicle processes) instead of the

@@ -77,6 +77,7 @@ MonteCarloReport run_monte_carlo(const Scenario& scenario,
         MissionOptions mission;
         mission.record_trajectories = false;
         mission.method = options.method;
+        mission.ddpg_policy = options.ddpg_policy;
         run.metrics = fly_mission(varied, terrain, plan, mission).metrics;
         run.failures = failures_of(run.metrics);
       } catch (const std::exception& e) {

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "planning/global_planner.hpp"
+#include "learning/ddpg.hpp"
 #include "sim/method.hpp"
 #include "sim/mission_metrics.hpp"
 #include "sim/scenario.hpp"
@@ -25,6 +26,7 @@ struct MonteCarloOptions {
   int threads = 1;
   VariationOptions variation;
   Method method = Method::kProposed;  ///< the agents that fly; the plan must be this method's
+  std::shared_ptr<const learning::DdpgPolicy> ddpg_policy;  ///< required for Method::kDdpg
   /// Called from the worker threads (serialized) after each run: (done, total, failed so far).
   std::function<void(int, int, int)> progress;
 };

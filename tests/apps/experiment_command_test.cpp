@@ -42,9 +42,9 @@ TEST(ExperimentCommand, WritesTheIssuesShapeWithIdenticalSeeds) {
   ASSERT_EQ(e.at("tasks").size(), 1u);
   const nlohmann::json& task = e["tasks"][0];
   EXPECT_EQ(task.at("task"), "northeast");
-  ASSERT_EQ(task.at("methods").size(), 3u);
+  ASSERT_EQ(task.at("methods").size(), 4u);
   const auto seed = task["methods"]["proposed"]["runs"][0]["seed"];
-  for (const char* name : {"proposed", "astar_dwa", "wind_aware"}) {
+  for (const char* name : {"proposed", "astar_dwa", "wind_aware", "ddpg"}) {
     const nlohmann::json& M = task["methods"].at(name);
     EXPECT_TRUE(M.at("path_length_m").contains("mean"));
     EXPECT_TRUE(M.at("path_length_m").contains("std"));
@@ -61,9 +61,8 @@ TEST(ExperimentCommand, WritesTheIssuesShapeWithIdenticalSeeds) {
 TEST(ExperimentCommand, UnknownMethodOrTaskIsOneErrorAndWritesNothing) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   EXPECT_EQ(
-      run_cli("experiment --methods proposed,ddpg --out " + (dir / "a").string(), dir / "a.log"),
-      2);
-  EXPECT_NE(slurp(dir / "a.log").find("error: --methods: unknown method 'ddpg'"), std::string::npos)
+      run_cli("experiment --methods proposed,sac --out " + (dir / "a").string(), dir / "a.log"), 2);
+  EXPECT_NE(slurp(dir / "a.log").find("error: --methods: unknown method 'sac'"), std::string::npos)
       << slurp(dir / "a.log");
   EXPECT_EQ(run_cli("experiment --tasks moon --out " + (dir / "b").string(), dir / "b.log"), 2);
   EXPECT_NE(slurp(dir / "b.log").find("error: --tasks: unknown task 'moon'"), std::string::npos)
@@ -73,6 +72,34 @@ TEST(ExperimentCommand, UnknownMethodOrTaskIsOneErrorAndWritesNothing) {
   EXPECT_FALSE(fs::exists(dir / "a" / "experiment.json"));
   EXPECT_FALSE(fs::exists(dir / "b" / "experiment.json"));
   EXPECT_FALSE(fs::exists(dir / "c"));
+  fs::remove_all(dir);
+}
+
+TEST(DdpgMethod, MissingModelFileIsOneErrorNamingItAndWritesNothing) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const std::string missing = (dir / "no_such_model.pt").string();
+  const std::string expected = "error: " + missing + ": DDPG model file not found";
+  for (const std::string command :
+       {"run --method ddpg --quiet", "montecarlo --method ddpg --runs 1 --quiet",
+        "experiment --methods proposed,ddpg --runs 1 --quiet"}) {
+    const fs::path out = dir / "out";
+    EXPECT_EQ(run_cli(command + " --ddpg-model " + missing + " --out " + out.string(), dir / "log"),
+              2)
+        << command;
+    const std::string log = slurp(dir / "log");
+    EXPECT_NE(log.find(expected), std::string::npos) << command << "\n" << log;
+    EXPECT_EQ(log.find("error", log.find("error") + 1), std::string::npos) << log;  // once
+    EXPECT_FALSE(fs::exists(out)) << command;
+  }
+  // A file that is not a model names the file too.
+  std::ofstream(dir / "bad.pt") << "not a model";
+  EXPECT_EQ(run_cli("run --method ddpg --quiet --ddpg-model " + (dir / "bad.pt").string() +
+                        " --out " + (dir / "out").string(),
+                    dir / "log"),
+            2);
+  EXPECT_NE(slurp(dir / "log").find("error: " + (dir / "bad.pt").string() + ": not a readable"),
+            std::string::npos)
+      << slurp(dir / "log");
   fs::remove_all(dir);
 }
 

@@ -198,6 +198,7 @@ EpisodeSetup straight_episode(const Vec3& target) {
 
 TEST(Environment, FlyingStraightAtCruiseReachesATargetAhead) {
   UavEnvironment env(calm_options());
+  const double T = env.options().action_period_s;
   env.reset(straight_episode(Vec3(300, 0, 100)));
   StepResult step;
   double progress = 0.0;
@@ -210,13 +211,13 @@ TEST(Environment, FlyingStraightAtCruiseReachesATargetAhead) {
   EXPECT_EQ(step.outcome, EpisodeOutcome::kReached);
   EXPECT_DOUBLE_EQ(step.reward.terminal, 50.0);
   // Progress sums to (300 − d_end)/(v0·T_a) with d_end ≤ the 30 m radius.
-  EXPECT_GE(progress, (300.0 - 30.0) / 2.0 - 1e-9);
-  EXPECT_LE(progress, 300.0 / 2.0 + 1e-9);
-  // 270 m at 10 m/s: about 27 s, i.e. about 135 decisions.
-  EXPECT_NEAR(steps, 135, 3);
+  EXPECT_GE(progress, (300.0 - 30.0) / (10.0 * T) - 1e-9);
+  EXPECT_LE(progress, 300.0 / (10.0 * T) + 1e-9);
+  // 270 m at 10 m/s: about 27 s (one control period's ±0.2 m of noise-free flight).
+  EXPECT_NEAR(env.time_s(), 27.0, 0.1);
   // The episode ends at the control period that reaches the target, inside the last decision.
-  EXPECT_LE(env.time_s(), steps * 0.2 + 1e-9);
-  EXPECT_GT(env.time_s(), (steps - 1) * 0.2);
+  EXPECT_LE(env.time_s(), steps * T + 1e-9);
+  EXPECT_GT(env.time_s(), (steps - 1) * T);
 }
 
 TEST(Environment, DivingEndsInTheTerrain) {
@@ -255,11 +256,15 @@ TEST(Environment, AThreatOnTheLineIsACollision) {
 }
 
 TEST(Environment, RateLimitsShapeTheCommand) {
-  UavEnvironment env(calm_options());
+  EnvironmentOptions o = calm_options();
+  o.action_period_s = 0.2;
+  UavEnvironment env(o);
   env.reset(straight_episode(Vec3(3000, 0, 100)));
   env.step(Vec3(0, 1, 0));
   // 10 control periods of 20 ms at 1.5 rad/s² allow 0.3 rad/s of the 1 rad/s asked for.
   EXPECT_NEAR(env.command()[vehicle::kTurnRateCmd], 0.3, 1e-9);
+  env.step(Vec3(0, 1, 0));
+  EXPECT_NEAR(env.command()[vehicle::kTurnRateCmd], 0.6, 1e-9);
 }
 
 TEST(Environment, RandomEpisodesAreDeterministicAndWithinTheirRanges) {

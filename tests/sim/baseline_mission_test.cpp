@@ -50,6 +50,36 @@ INSTANTIATE_TEST_SUITE_P(Methods, BaselineMission,
                          ::testing::Values(Method::kAstarDwa, Method::kWindAware),
                          [](const auto& info) { return std::string(to_string(info.param)); });
 
+// [8]: the committed DDPG policy (models/) flies the same small mission through the same loop.
+TEST(DdpgMission, TheCommittedPolicyFliesToEveryTargetWithinTheLimits) {
+  std::shared_ptr<const world::Terrain> terrain;
+  const Scenario s = small_scenario(terrain, true);
+  const planning::GlobalPlan plan = plan_for_method(s, terrain, Method::kDdpg);
+  ASSERT_EQ(plan.status, planning::GlobalPlanStatus::kPlanned) << plan.message;
+  MissionOptions options;
+  options.method = Method::kDdpg;
+  try {
+    fly_mission(s, terrain, plan, options);
+    FAIL() << "flew without a policy";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "--ddpg-model");
+  }
+  options.ddpg_policy = std::make_shared<const learning::DdpgPolicy>(
+      learning::DdpgPolicy::load(RIDGELINE_SOURCE_DIR "/models/ddpg_mountain.pt"));
+  const MissionMetrics m = fly_mission(s, terrain, plan, options).metrics;
+  EXPECT_TRUE(m.mission_complete) << to_json(m).dump(2);
+  EXPECT_EQ(m.terrain_collisions, 0);
+  EXPECT_EQ(m.threat_intrusions, 0);
+  // The command is mapped into the maneuver limits and the climb kept within the pitch limit.
+  EXPECT_EQ(m.constraint_violations.at("altitude"), 0);
+  EXPECT_EQ(m.constraint_violations.at("turn"), 0);
+  EXPECT_EQ(m.constraint_violations.at("pitch"), 0);
+  for (const UavMetrics& u : m.uavs) {
+    EXPECT_EQ(u.targets_inspected, 1) << u.name;
+    EXPECT_GT(u.path_length_m, 600.0) << u.name;  // at least about the straight line
+  }
+}
+
 TEST(Method, NamesRoundTripAndAnUnknownOneIsAClearError) {
   for (const Method m : all_methods()) EXPECT_EQ(parse_method(to_string(m)), m);
   try {

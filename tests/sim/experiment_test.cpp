@@ -23,8 +23,16 @@ Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain) {
   return s;
 }
 
+// The committed DDPG model (models/README.md), loaded once.
+std::shared_ptr<const learning::DdpgPolicy> committed_policy() {
+  static const auto policy = std::make_shared<const learning::DdpgPolicy>(
+      learning::DdpgPolicy::load(RIDGELINE_SOURCE_DIR "/models/ddpg_mountain.pt"));
+  return policy;
+}
+
 ExperimentOptions small_options(int threads) {
   ExperimentOptions o;
+  o.ddpg_policy = committed_policy();
   o.runs = 2;
   o.threads = threads;
   o.tasks = {{"own", "the scenario's targets", {}}, {"corner", "one target", {{0.85, 0.85}}}};
@@ -44,8 +52,8 @@ TEST(Experiment, JsonHasEveryTaskAndMethodWithIdenticalSeedsPerRun) {
     ASSERT_EQ(seeds.size(), 2u);
     EXPECT_NE(seeds[0], seeds[1]);  // runs differ
     for (const auto& seed : seeds) all_seeds.insert(seed.get<std::uint64_t>());
-    ASSERT_EQ(task.at("methods").size(), 3u);
-    for (const char* name : {"proposed", "astar_dwa", "wind_aware"}) {
+    ASSERT_EQ(task.at("methods").size(), 4u);
+    for (const char* name : {"proposed", "astar_dwa", "wind_aware", "ddpg"}) {
       ASSERT_TRUE(task.at("methods").contains(name)) << name;
       const nlohmann::json& M = task.at("methods").at(name);
       EXPECT_EQ(M.at("plan_status"), "planned") << M.at("plan_message");
@@ -96,7 +104,8 @@ TEST(Experiment, ResultsDoNotDependOnTheNumberOfThreads) {
   const nlohmann::json a = run_experiment(s, terrain, o);
   o.threads = 2;
   const nlohmann::json b = run_experiment(s, terrain, o);
-  for (const char* name : {"proposed", "astar_dwa", "wind_aware"}) {
+  // ddpg too: the one policy is shared read-only by the threads' flights.
+  for (const char* name : {"proposed", "astar_dwa", "wind_aware", "ddpg"}) {
     const auto& ra = a["tasks"][0]["methods"][name]["runs"];
     const auto& rb = b["tasks"][0]["methods"][name]["runs"];
     for (std::size_t r = 0; r < 2; ++r) {
@@ -112,6 +121,14 @@ TEST(Experiment, BadOptionsAndTargetsOutsideTheAreaAreClearErrors) {
   ExperimentOptions o = small_options(1);
   o.runs = 0;
   EXPECT_THROW(run_experiment(s, terrain, o), InputError);
+  o = small_options(1);
+  o.ddpg_policy = nullptr;
+  try {
+    run_experiment(s, terrain, o);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "--ddpg-model");
+  }
   o = small_options(1);
   o.tasks = {{"bad", "", {{1.5, 0.5}}}};
   try {
