@@ -90,6 +90,10 @@ void register_bench_command(CLI::App& app) {
       ->capture_default_str();
   replan->add_option("--time-margin-s", replan_options->benchmark.replan.threat_time_margin_s,
                      "avoid each threat over [t - D, t + D] (default: its sweep over the window)");
+  replan
+      ->add_option("--budget-s", replan_options->benchmark.replan.time_budget_s,
+                   "time budget of one re-plan's solves (an early exit is a failure status)")
+      ->capture_default_str();
   replan->callback([replan_options] {
     const sim::ReplanBenchmarkOptions& o = replan_options->benchmark;
     if (o.cases < 1) throw InputError("--cases", "must be at least 1");
@@ -97,6 +101,8 @@ void register_bench_command(CLI::App& app) {
       throw InputError("--window-s", "must be positive");
     if (!(o.replan.threat_time_margin_s >= 0.0))
       throw InputError("--time-margin-s", "must not be negative");
+    if (!(o.replan.time_budget_s > 0.0 && std::isfinite(o.replan.time_budget_s)))
+      throw InputError("--budget-s", "must be positive");
     const io::LoadedScenario loaded = load_scenario_argument(replan_options->scenario);
     const sim::ReplanBenchmarkReport report =
         sim::run_replan_benchmark(sim::make_planning_problem(loaded.scenario, loaded.terrain),

@@ -77,6 +77,16 @@ TEST_F(Cli, ValidateListsEveryProblemByFieldAndFails) {
   EXPECT_THAT(r.err, HasSubstr("2 problems"));
 }
 
+TEST_F(Cli, ReplanBenchmarkBudgetMustBePositive) {
+  // Checked before the scenario is planned: one message naming the option, non-zero exit.
+  for (const char* bad : {"0", "-1", "nan"}) {
+    const CliRun r = run(std::string("bench replan --cases 1 --budget-s ") + bad);
+    EXPECT_NE(r.exit_code, 0) << bad;
+    EXPECT_THAT(r.err, HasSubstr("--budget-s")) << bad;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+  }
+}
+
 TEST_F(Cli, MalformedAndMissingFilesFailWithOneMessage) {
   write("broken.yaml", "area: [1, 2\n");
   CliRun r = run("validate " + (dir_ / "broken.yaml").string());
