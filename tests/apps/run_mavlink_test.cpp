@@ -100,9 +100,8 @@ int announced_port(const fs::path& log) {
 
 double relative(double a, double b) { return std::abs(a - b) / std::max(std::abs(a), 1e-12); }
 
-TEST(RunMavlink, AShortenedMissionThroughVehicleSimProcessesMatchesTheInProcessRun) {
-  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
-  const fs::path scenario = short_default_scenario(dir, 60);
+/// Flies `scenario` in process into DIR/run and through vehicle-sim processes into DIR/mav.
+void fly_both_ways(const fs::path& dir, const fs::path& scenario) {
   ASSERT_EQ(
       run_cli("run --quiet --scenario " + scenario.string() + " --out " + (dir / "run").string(),
               dir / "run.log"),
@@ -113,6 +112,12 @@ TEST(RunMavlink, AShortenedMissionThroughVehicleSimProcessesMatchesTheInProcessR
                     dir / "mav.log"),
             0)
       << slurp(dir / "mav.log");
+}
+
+TEST(RunMavlink, AShortenedMissionThroughVehicleSimProcessesMatchesTheInProcessRun) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const fs::path scenario = short_default_scenario(dir, 60);
+  ASSERT_NO_FATAL_FAILURE(fly_both_ways(dir, scenario));
   for (const char* f : {"metrics.json", "trajectories.csv", "plan.json", "summary.json"})
     EXPECT_TRUE(fs::exists(dir / "mav" / f)) << f;
   const json a = read_json(dir / "run" / "metrics.json");
@@ -175,16 +180,7 @@ TEST(RunMavlink, AShortenedMissionThroughVehicleSimProcessesMatchesTheInProcessR
 TEST(RunMavlink, AScenarioWithAGeodeticOriginFliesWithPx4LocalZAboutHome) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   const fs::path scenario = short_geo_scenario(dir);
-  ASSERT_EQ(
-      run_cli("run --quiet --scenario " + scenario.string() + " --out " + (dir / "run").string(),
-              dir / "run.log"),
-      0)
-      << slurp(dir / "run.log");
-  ASSERT_EQ(run_cli("run --quiet --mavlink --scenario " + scenario.string() + " --out " +
-                        (dir / "mav").string(),
-                    dir / "mav.log"),
-            0)
-      << slurp(dir / "mav.log");
+  ASSERT_NO_FATAL_FAILURE(fly_both_ways(dir, scenario));
   const json a = read_json(dir / "run" / "metrics.json");
   const json b = read_json(dir / "mav" / "metrics.json");
   EXPECT_EQ(b["mavlink"]["home_altitude_m"].get<double>(), 800.0);
