@@ -130,9 +130,14 @@ std::vector<double> lift_against(GuessUav& u, const std::vector<GuessUav>& uavs,
   const int n = static_cast<int>(base.size()) - 1;
   // Slopes the climb budget leaves, and the cap U (zero at fixed points, H_max above).
   std::vector<double> slope(static_cast<std::size_t>(n));
-  for (int k = 0; k < n; ++k)
-    slope[k] = std::max(
-        0.0, options.slope_fraction * u.max_climb_step_m - std::abs(base[k + 1].z() - base[k].z()));
+  for (int k = 0; k < n; ++k) {
+    // A step is bounded by the climb per step and by the grade over its own horizontal length
+    // (a delayed UAV's slow steps are shorter than the cruise steps the climb budget assumes).
+    const double horizontal_m = (base[k + 1] - base[k]).head<2>().norm();
+    const double budget_m = std::min(u.max_climb_step_m, u.max_grade * horizontal_m);
+    slope[k] =
+        std::max(0.0, options.slope_fraction * budget_m - std::abs(base[k + 1].z() - base[k].z()));
+  }
   std::vector<double> cap(static_cast<std::size_t>(n) + 1);
   for (int k = 0; k <= n; ++k)
     cap[k] = u.fixed[k] != 0 ? 0.0 : std::max(0.0, options.max_altitude_m - base[k].z());
@@ -215,6 +220,8 @@ GuessDeconflictionSummary deconflict_guesses(std::vector<GuessUav>& uavs,
                        "needs >= 2 points and one fixed flag per point");
     if (!(u.max_climb_step_m > 0.0))
       throw InputError(fmt::format("uavs[{}].max_climb_step_m", i), "must be positive");
+    if (!(u.max_grade > 0.0))
+      throw InputError(fmt::format("uavs[{}].max_grade", i), "must be positive");
     if (!(u.min_speed_ratio >= 0.0 && u.min_speed_ratio < 1.0))
       throw InputError(fmt::format("uavs[{}].min_speed_ratio", i), "must be in [0, 1)");
   }

@@ -59,6 +59,8 @@ struct GuessUav {
   std::vector<char> fixed;        ///< per point: 1 if it must not move
   double max_climb_step_m = 0.0;  ///< c = w_max·Δt (> 0)
   double min_speed_ratio = 0.5;   ///< [0, 1): (v0 − Δv)/v0, the slowest a delay may fly
+  /// > 0: tan θ_max; a lift's climb on a step stays within this × the step's horizontal length
+  double max_grade = std::numeric_limits<double>::infinity();
 };
 
 struct GuessDeconflictionSummary {

@@ -278,7 +278,8 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       const double pitch_step_m = g.tan_max_pitch * g.nominal_length_m;
       guesses.push_back({g.guess_m, g.fixed,
                          climb ? std::min(g.max_climb_m, pitch_step_m) : pitch_step_m,
-                         std::clamp(v.min_speed_m_s() / v.cruise_speed_m_s, 0.0, 0.95)});
+                         std::clamp(v.min_speed_m_s() / v.cruise_speed_m_s, 0.0, 0.95),
+                         g.tan_max_pitch});
     }
     GuessDeconflictionOptions deconfliction;
     deconfliction.separation_m = std::max(options.guess_separation_factor * options.separation_m,

@@ -138,6 +138,7 @@ TEST(GuessDeconflictionTest, RandomTeamsNeverGetWorseAndKeepTheirLimits) {
       const Vec3 b(pos(rng), pos(rng), alt(rng));
       const int n = 20 + static_cast<int>(rng() % 10);
       GuessUav u = straight(a, b, n, std::max(3.0, std::abs(b.z() - a.z()) / n + 0.5));
+      u.max_grade = 0.3;  // the pitch limit: a lift's ramp must keep it on short (slow) steps too
       uavs.push_back(u);
     }
     const std::vector<GuessUav> before = uavs;
@@ -157,7 +158,15 @@ TEST(GuessDeconflictionTest, RandomTeamsNeverGetWorseAndKeepTheirLimits) {
       for (std::size_t k = 0; k < u.guess_m.size(); ++k) {
         EXPECT_LE(u.guess_m[k].z(), options.max_altitude_m + 1e-9);
         if (k > 0) {
-          EXPECT_LE(std::abs(u.guess_m[k].z() - u.guess_m[k - 1].z()), u.max_climb_step_m + 1e-9);
+          const double climb_m = std::abs(u.guess_m[k].z() - u.guess_m[k - 1].z());
+          EXPECT_LE(climb_m, u.max_climb_step_m + 1e-9);
+          // A route within the grade keeps it after lifts and delays.
+          const Vec3 route = before[i].guess_m.back() - before[i].guess_m.front();
+          if (std::abs(route.z()) <= u.max_grade * route.head<2>().norm()) {
+            EXPECT_LE(climb_m,
+                      u.max_grade * (u.guess_m[k] - u.guess_m[k - 1]).head<2>().norm() + 1e-9)
+                << "trial " << trial << " uav " << i << " step " << k;
+          }
         }
       }
     }
