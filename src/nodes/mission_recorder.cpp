@@ -20,20 +20,17 @@ MissionRecorder::MissionRecorder(const sim::Scenario& scenario,
     : scenario_(scenario),
       terrain_(std::move(terrain)),
       record_(record_trajectories),
-      min_separation_(kInf),
-      min_threat_(kInf),
+      safety_(scenario, *terrain_),
       min_turn_radius_(kInf) {
   const int n = world.num_uavs();
   tally_.resize(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < n; ++i)
     tally_[static_cast<std::size_t>(i)].last_position = world.true_position(i);
-    tally_[static_cast<std::size_t>(i)].min_clearance_m = kInf;
-  }
   for (const char* kind : {"altitude", "pitch", "turn"})
     result_.metrics.constraint_violations[kind] = 0;
 }
 
-void MissionRecorder::sensed(int uav, int threat) { encounters_.insert({uav, threat}); }
+void MissionRecorder::sensed(int uav, int threat) { safety_.sensed(uav, threat); }
 
 void MissionRecorder::path_and_constraints(int i, double t, const sim::TruthWorld& world,
                                            bool finished, const Vec3& reference_m,
@@ -89,46 +86,14 @@ void MissionRecorder::unanswered(int i, double t, const sim::TruthWorld& world) 
   path_and_constraints(i, t, world, false, Vec3::Zero(), nullptr);
 }
 
-void MissionRecorder::tick(double t, const sim::TruthWorld& world) {
-  const int n = world.num_uavs();
-  for (int i = 0; i < n; ++i) {
-    const Vec3 p = world.true_position(i);
-    UavTally& u = tally_[static_cast<std::size_t>(i)];
-    const double clearance = p.z() - terrain_->height(p.x(), p.y());
-    u.min_clearance_m = std::min(u.min_clearance_m, clearance);
-    u.hit_terrain = u.hit_terrain || clearance < 0.0;
-    for (int j = i + 1; j < n; ++j) {
-      const double d = (p - world.true_position(j)).norm();
-      min_separation_ = std::min(min_separation_, d);
-      if (d < scenario_.safety.separation_m) close_pairs_.insert({i, j});
-    }
-    for (std::size_t k = 0; k < world.threats().size(); ++k) {
-      const double d = world.threats()[k].surface_distance(p, t);
-      if (!std::isfinite(d)) continue;
-      min_threat_ = std::min(min_threat_, d);
-      if (d < 0.0) intrusions_.insert({i, static_cast<int>(k)});
-      if (d < scenario_.safety.threat_margin_m) margin_violations_.insert({i, static_cast<int>(k)});
-    }
-  }
-}
+void MissionRecorder::tick(double t, const sim::TruthWorld& world) { safety_.sample(t, world); }
 
 sim::MissionResult MissionRecorder::finish(double t,
                                            const std::vector<transport_dds::CommandReport>& last,
                                            const std::vector<double>& finish_time_s) {
   sim::MissionMetrics& m = result_.metrics;
   m.sim_time_s = t;
-  m.min_separation_m = min_separation_;
   m.min_turn_radius_m = min_turn_radius_;
-  m.min_threat_distance_m = min_threat_;
-  for (const auto& pair : intrusions_) encounters_.insert(pair);
-  m.threat_encounters = static_cast<int>(encounters_.size());
-  m.threat_intrusions = static_cast<int>(intrusions_.size());
-  m.threat_margin_violations = static_cast<int>(margin_violations_.size());
-  m.avoidance_success_rate = encounters_.empty()
-                                 ? 1.0
-                                 : static_cast<double>(m.threat_encounters - m.threat_intrusions) /
-                                       static_cast<double>(m.threat_encounters);
-  m.separation_violations = static_cast<int>(close_pairs_.size());
   m.mpc_solve_us = sim::percentiles(step_us_);
   m.qp_iterations = sim::percentiles(iterations_);
   m.mission_complete = true;
@@ -141,7 +106,6 @@ sim::MissionResult MissionRecorder::finish(double t,
     um.tracking_samples = u.samples;
     um.tracking_mse_m2 = u.samples > 0 ? u.squared_error_sum / u.samples : 0.0;
     um.tracking_rmse_m = std::sqrt(um.tracking_mse_m2);
-    um.min_terrain_clearance_m = u.min_clearance_m;
     um.targets_assigned = a.targets_assigned;
     um.targets_inspected = a.targets_inspected;
     um.missed_targets = a.missed_targets;
@@ -157,11 +121,11 @@ sim::MissionResult MissionRecorder::finish(double t,
     um.stale_neighbour_steps = static_cast<long long>(c.stale_neighbour_steps);
     um.messages_rejected = static_cast<long long>(c.messages_rejected);
     um.max_slack_m = u.max_slack_m;
-    m.terrain_collisions += u.hit_terrain ? 1 : 0;
     m.mission_complete =
         m.mission_complete && um.finished && um.targets_inspected == um.targets_assigned;
     m.uavs.push_back(std::move(um));
   }
+  safety_.write(m);
   return std::move(result_);
 }
 

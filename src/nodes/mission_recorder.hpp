@@ -2,18 +2,18 @@
 // metrics as sim::fly_mission (MissionMetrics, trajectories.csv rows), taken on the truth, fed
 // with what the agents report in their answers instead of reading their memory.
 //
-// The per-UAV and per-tick measurements mirror fly_mission's (tracking error every 10 m of
-// flown path, clearance, separation, threat encounters and intrusions, constraint checks at
-// control steps); a UAV whose agent was lost is counted as not finished.
+// The per-UAV measurements mirror fly_mission's (tracking error every 10 m of flown path,
+// constraint checks at control steps); the per-tick distances (clearance, separation, threat
+// encounters and intrusions) are the same sim::SafetyTally; a UAV whose agent was lost is
+// counted as not finished.
 #pragma once
 
 #include <memory>
-#include <set>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "sim/mission.hpp"
+#include "sim/safety_tally.hpp"
 #include "sim/scenario.hpp"
 #include "sim/truth_world.hpp"
 #include "transport_dds/sim_link.hpp"
@@ -47,8 +47,6 @@ class MissionRecorder {
     double next_sample_m = 0.0;
     double squared_error_sum = 0.0;
     int samples = 0;
-    double min_clearance_m = 0.0;
-    bool hit_terrain = false;
     double max_slack_m = 0.0;
   };
   void path_and_constraints(int uav, double t_s, const sim::TruthWorld& world, bool finished,
@@ -60,8 +58,8 @@ class MissionRecorder {
   sim::MissionResult result_;
   std::vector<UavTally> tally_;
   std::vector<double> step_us_, iterations_;
-  std::set<std::pair<int, int>> encounters_, intrusions_, margin_violations_, close_pairs_;
-  double min_separation_, min_threat_, min_turn_radius_;
+  sim::SafetyTally safety_;
+  double min_turn_radius_;
 };
 
 }  // namespace ridgeline::nodes

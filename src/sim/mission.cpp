@@ -7,12 +7,12 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-#include <set>
 #include <utility>
 
 #include "core/cpu_clock.hpp"
 #include "core/error.hpp"
 #include "core/random.hpp"
+#include "sim/safety_tally.hpp"
 #include "sim/truth_world.hpp"
 #include "baselines/ddpg_agent.hpp"
 #include "baselines/dwa_agent.hpp"
@@ -33,8 +33,6 @@ struct UavTally {
   double next_sample_m = 0.0;
   double squared_error_sum = 0.0;
   int samples = 0;
-  double min_clearance_m = kInf;
-  bool hit_terrain = false;
   double max_slack_m = 0.0;
 };
 
@@ -241,15 +239,14 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   for (int i = 0; i < n; ++i)
     tally[static_cast<std::size_t>(i)].last_position = world.true_position(i);
   std::vector<double> step_us, step_cpu_us, iterations;
-  std::set<std::pair<int, int>> encounters, intrusions, margin_violations, close_pairs;
+  SafetyTally safety(scenario, *terrain);
   for (const char* kind : {"altitude", "pitch", "turn"}) m.constraint_violations[kind] = 0;
-  double min_separation = kInf, min_threat = kInf, min_turn_radius = kInf;
+  double min_turn_radius = kInf;
   std::vector<double> finish_time(static_cast<std::size_t>(n), -1.0);
 
   const double tick_s = 1.0 / scenario.simulation.message_rate_hz;
   const double control_s = scenario.mpc.control_period_s;
   const double duration = scenario.simulation.duration_s;
-  const double threat_margin = scenario.safety.threat_margin_m;
   std::vector<swarm::Envelope> inbox;
   std::vector<swarm::Message> outbox;
   std::vector<int> sensed;
@@ -285,7 +282,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
         for (const int k : sensed) {
           const world::Threat& th = world.threats()[static_cast<std::size_t>(k)];
           observations.push_back({k, th.centre_at(t), th.velocity_m_s, th.radius_m});
-          encounters.insert({i, k});
+          safety.sensed(i, k);
         }
         outbox.clear();
         agent.sense(t, observations, outbox);
@@ -357,44 +354,14 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     // Broadcast (every tick) and the truth's distances (every tick).
     for (int i = 0; i < n; ++i)
       transport.publish(i, t, agents[static_cast<std::size_t>(i)]->prediction_message());
-    for (int i = 0; i < n; ++i) {
-      const Vec3 p = world.true_position(i);
-      UavTally& u = tally[static_cast<std::size_t>(i)];
-      const double clearance = p.z() - terrain->height(p.x(), p.y());
-      u.min_clearance_m = std::min(u.min_clearance_m, clearance);
-      u.hit_terrain = u.hit_terrain || clearance < 0.0;
-      for (int j = i + 1; j < n; ++j) {
-        const double d = (p - world.true_position(j)).norm();
-        min_separation = std::min(min_separation, d);
-        if (d < scenario.safety.separation_m) close_pairs.insert({i, j});
-      }
-      for (std::size_t k = 0; k < world.threats().size(); ++k) {
-        const double d = world.threats()[k].surface_distance(p, t);
-        if (!std::isfinite(d)) continue;
-        min_threat = std::min(min_threat, d);
-        if (d < 0.0) intrusions.insert({i, static_cast<int>(k)});
-        if (d < threat_margin) margin_violations.insert({i, static_cast<int>(k)});
-      }
-    }
+    safety.sample(t, world);
     bool all_finished = true;
     for (const auto& a : agents) all_finished = all_finished && a->finished();
     if (all_finished) break;
   }
 
   m.sim_time_s = t;
-  m.min_separation_m = min_separation;
   m.min_turn_radius_m = min_turn_radius;
-  m.min_threat_distance_m = min_threat;
-  // An intrusion counts as an encounter even if it happened before the UAV sensed the threat.
-  for (const auto& pair : intrusions) encounters.insert(pair);
-  m.threat_encounters = static_cast<int>(encounters.size());
-  m.threat_intrusions = static_cast<int>(intrusions.size());
-  m.threat_margin_violations = static_cast<int>(margin_violations.size());
-  m.avoidance_success_rate = encounters.empty()
-                                 ? 1.0
-                                 : static_cast<double>(m.threat_encounters - m.threat_intrusions) /
-                                       static_cast<double>(m.threat_encounters);
-  m.separation_violations = static_cast<int>(close_pairs.size());
   m.mpc_solve_us = percentiles(step_us);
   m.mpc_solve_cpu_us = percentiles(step_cpu_us);
   m.qp_iterations = percentiles(iterations);
@@ -408,7 +375,6 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     um.tracking_samples = u.samples;
     um.tracking_mse_m2 = u.samples > 0 ? u.squared_error_sum / u.samples : 0.0;
     um.tracking_rmse_m = std::sqrt(um.tracking_mse_m2);
-    um.min_terrain_clearance_m = u.min_clearance_m;
     um.targets_assigned = static_cast<int>(plans[static_cast<std::size_t>(i)].targets.size());
     um.targets_inspected = a.targets_inspected();
     um.missed_targets = a.missed_targets();
@@ -425,11 +391,11 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     um.stale_neighbour_steps = static_cast<long long>(c.stale_neighbour_steps);
     um.messages_rejected = static_cast<long long>(c.messages_rejected);
     um.max_slack_m = u.max_slack_m;
-    m.terrain_collisions += u.hit_terrain ? 1 : 0;
     m.mission_complete =
         m.mission_complete && um.finished && um.targets_inspected == um.targets_assigned;
     m.uavs.push_back(std::move(um));
   }
+  safety.write(m);
   const swarm::TransportStats stats = transport.stats();
   m.messages_published = static_cast<long long>(stats.published);
   m.messages_dropped = static_cast<long long>(stats.dropped);

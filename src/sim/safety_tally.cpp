@@ -1,0 +1,64 @@
+#include "sim/safety_tally.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace ridgeline::sim {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
+
+SafetyTally::SafetyTally(const Scenario& scenario, const world::Terrain& terrain)
+    : terrain_(terrain),
+      separation_m_(scenario.safety.separation_m),
+      threat_margin_m_(scenario.safety.threat_margin_m),
+      min_clearance_m_(scenario.uavs.size(), kInf),
+      min_separation_m_(kInf),
+      min_threat_m_(kInf) {}
+
+void SafetyTally::sensed(int uav, int threat) { encounters_.insert({uav, threat}); }
+
+void SafetyTally::sample(double t, const TruthWorld& world) {
+  const int n = world.num_uavs();
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p = world.true_position(i);
+    double& clearance = min_clearance_m_[static_cast<std::size_t>(i)];
+    clearance = std::min(clearance, p.z() - terrain_.height(p.x(), p.y()));
+    for (int j = i + 1; j < n; ++j) {
+      const double d = (p - world.true_position(j)).norm();
+      min_separation_m_ = std::min(min_separation_m_, d);
+      if (d < separation_m_) close_pairs_.insert({i, j});
+    }
+    for (std::size_t k = 0; k < world.threats().size(); ++k) {
+      const double d = world.threats()[k].surface_distance(p, t);
+      if (!std::isfinite(d)) continue;
+      min_threat_m_ = std::min(min_threat_m_, d);
+      if (d < 0.0) intrusions_.insert({i, static_cast<int>(k)});
+      if (d < threat_margin_m_) margin_violations_.insert({i, static_cast<int>(k)});
+    }
+  }
+}
+
+void SafetyTally::write(MissionMetrics& m) const {
+  m.min_separation_m = min_separation_m_;
+  m.min_threat_distance_m = min_threat_m_;
+  std::set<std::pair<int, int>> encounters = encounters_;
+  encounters.insert(intrusions_.begin(), intrusions_.end());
+  m.threat_encounters = static_cast<int>(encounters.size());
+  m.threat_intrusions = static_cast<int>(intrusions_.size());
+  m.threat_margin_violations = static_cast<int>(margin_violations_.size());
+  m.avoidance_success_rate = encounters.empty()
+                                 ? 1.0
+                                 : static_cast<double>(m.threat_encounters - m.threat_intrusions) /
+                                       static_cast<double>(m.threat_encounters);
+  m.separation_violations = static_cast<int>(close_pairs_.size());
+  m.terrain_collisions = 0;
+  for (std::size_t i = 0; i < m.uavs.size() && i < min_clearance_m_.size(); ++i) {
+    m.uavs[i].min_terrain_clearance_m = min_clearance_m_[i];
+    if (min_clearance_m_[i] < 0.0) ++m.terrain_collisions;
+  }
+}
+
+}  // namespace ridgeline::sim

@@ -1,0 +1,39 @@
+// The truth's safety distances of a flight (DESIGN §6), sampled at the message rate: terrain
+// clearance per UAV, separation per pair, distance to every threat's surface, the threat
+// encounters (sensed, or intruded) and intrusions. One implementation for the in-process
+// mission (fly_mission) and the DDS world (nodes::MissionRecorder), so both count alike.
+#pragma once
+
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "sim/mission_metrics.hpp"
+#include "sim/scenario.hpp"
+#include "sim/truth_world.hpp"
+#include "world/terrain.hpp"
+
+namespace ridgeline::sim {
+
+class SafetyTally {
+ public:
+  SafetyTally(const Scenario& scenario, const world::Terrain& terrain);
+
+  /// UAV `uav` sensed threat `threat`: an encounter.
+  void sensed(int uav, int threat);
+  /// The truth's distances at time t.
+  void sample(double t, const TruthWorld& world);
+  /// Writes the overall distances and counts into `m`, and each UAV's minimum clearance into
+  /// m.uavs[i] (m.uavs must hold every UAV). An intrusion counts as an encounter even if it
+  /// happened before the UAV sensed the threat.
+  void write(MissionMetrics& m) const;
+
+ private:
+  const world::Terrain& terrain_;
+  double separation_m_, threat_margin_m_;
+  std::vector<double> min_clearance_m_;
+  double min_separation_m_, min_threat_m_;
+  std::set<std::pair<int, int>> encounters_, intrusions_, margin_violations_, close_pairs_;
+};
+
+}  // namespace ridgeline::sim
