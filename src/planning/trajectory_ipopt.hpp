@@ -1,7 +1,7 @@
 // One Ipopt solve of a TrajectoryNlp (trajectory_nlp.hpp), shared by the joint optimizer
 // (trajectory_optimizer.hpp) and the local re-plan (local_replan.hpp): the TNLP adapter, the
-// solver options both use (MUMPS with AMD ordering, user row scaling, monotone barrier) and the
-// warm start from a previous solve's multipliers.
+// solver options both use (our KKT factorization, kkt_ldlt.hpp, or MUMPS; user row scaling;
+// monotone barrier; no options file) and the warm start from a previous solve's multipliers.
 #pragma once
 
 #include <vector>
@@ -32,7 +32,7 @@ struct IpoptSolve {
 /// Solves `nlp` from x0 (size num_variables). With non-empty `warm` (sizes of this NLP) Ipopt
 /// starts from those multipliers with barrier parameter options.warm_start_mu. Uses
 /// options.tolerance, constraint_tolerance, max_iterations, exact_hessian, lbfgs_history,
-/// adaptive_barrier, print_level; max_cpu_time_s > 0 bounds the solve.
+/// adaptive_barrier, kkt_factorization, print_level; max_cpu_time_s > 0 bounds the solve.
 IpoptSolve solve_with_ipopt(const TrajectoryNlp& nlp, std::vector<double> x0,
                             const Multipliers& warm, const TrajectoryOptimizerOptions& options,
                             double max_cpu_time_s);

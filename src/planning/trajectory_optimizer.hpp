@@ -132,6 +132,10 @@ struct TrajectoryProblem {
   std::vector<TrajectoryUav> uavs;
 };
 
+/// kSparseLdlt: our fixed-order LDLᵀ (kkt_ldlt.hpp), several times faster per iteration on
+/// these systems; kMumps: Debian Ipopt's MUMPS, the reference.
+enum class KktFactorization { kSparseLdlt, kMumps };
+
 struct TrajectoryOptimizerOptions {
   // Grid.
   int waypoints_per_uav = 100;  ///< N: segments of the longest UAV (≥ 2), when time_step_s ≤ 0
@@ -187,6 +191,8 @@ struct TrajectoryOptimizerOptions {
   bool adaptive_barrier = false;      ///< Ipopt mu_strategy adaptive (else monotone: measured
                                       ///< fewer, cheaper iterations on these problems)
   bool exact_hessian = true;          ///< false: Ipopt's limited-memory quasi-Newton
+  /// The factorization of Ipopt's KKT system at each iteration.
+  KktFactorization kkt_factorization = KktFactorization::kSparseLdlt;
   /// With exact_hessian: each element's block of the Hessian of the Lagrangian (segment, vertex,
   /// terrain point, separation row, collision pair) projected onto the positive semidefinite
   /// cone (file comment). The gradients and Jacobians stay exact, so a point Ipopt accepts is a

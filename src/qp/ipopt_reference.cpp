@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string>
 
 namespace ridgeline::qp {
 namespace {
@@ -150,7 +151,7 @@ IpoptQpSolution solve_with_ipopt(const QpProblem& problem, double tolerance,
   app->Options()->SetIntegerValue("max_iter", 3000);
   app->Options()->SetNumericValue("bound_relax_factor", bound_relax_factor);
   IpoptQpSolution out;
-  if (app->Initialize() != Ipopt::Solve_Succeeded) return out;
+  if (app->Initialize(std::string()) != Ipopt::Solve_Succeeded) return out;
   const auto start = std::chrono::steady_clock::now();
   out.status = app->OptimizeTNLP(nlp);
   out.solve_time_us =
