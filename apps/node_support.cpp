@@ -29,6 +29,7 @@ nlohmann::json to_json(const nodes::WorldNodeResult& world) {
                       {"compute_max_s", a.compute_max_s},
                       {"answer_latency_p99_s", a.latency_p99_s},
                       {"missed_deadlines", a.missed_deadlines},
+                      {"turn_setpoints_limited", a.turn_setpoints_limited},
                       {"started_s", a.started_s},
                       {"lost_s", a.lost_s}});
   }

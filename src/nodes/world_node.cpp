@@ -34,6 +34,7 @@ struct Slot {
   CommandReport last;
   std::vector<double> periods, computes, latencies;
   long long missed = 0;
+  long long turn_limited = 0;
   double started_s = -1.0, lost_s = -1.0;
 };
 
@@ -94,13 +95,26 @@ WorldNodeResult run_world_node(const sim::Scenario& scenario,
         s.finish_time_s = t;
       }
     } else {
+      if (!options.lock_step) {
+        // In real time a setpoint lands some milliseconds after the state it was computed
+        // from, when the speed may have dropped: the flight controller holds |ω_c| to the turn
+        // limit (eq. 3) at the lowest speed of the coming period, which lies between the speed
+        // now and the commanded one (first-order speed response), and the limiting is counted.
+        const vehicle::VehicleParams& vp = scenario.uavs[static_cast<std::size_t>(a.uav)].vehicle;
+        const double v = std::min(world.true_state(a.uav)[vehicle::kV], s.last.command[0]);
+        const double limit = vp.max_turn_rate_rad_s(v);
+        if (std::abs(s.last.command[1]) > limit) {
+          s.last.command[1] = std::copysign(limit, s.last.command[1]);
+          ++s.turn_limited;
+        }
+      }
       if (s.finished) {
         // A finished UAV that got new targets (re-allocation) flies again.
         s.finished = false;
         s.finish_time_s = -1.0;
-        world.release(a.uav, a.command);
+        world.release(a.uav, s.last.command);
       }
-      world.set_command(a.uav, a.command);
+      world.set_command(a.uav, s.last.command);
     }
   };
   auto declare_lost = [&](int i) {
@@ -303,6 +317,7 @@ WorldNodeResult run_world_node(const sim::Scenario& scenario,
     d.compute_max_s = c.max;
     d.latency_p99_s = sim::percentiles(s.latencies).p99;
     d.missed_deadlines = s.missed;
+    d.turn_setpoints_limited = s.turn_limited;
     d.started_s = s.started_s;
     d.lost_s = s.lost_s;
     result.agents.push_back(d);

@@ -53,8 +53,11 @@ struct AgentDeadlineStats {
   double compute_max_s = 0.0;
   double latency_p99_s = 0.0;      ///< world: measurement published → answer taken
   long long missed_deadlines = 0;  ///< answers later than one control period
-  double started_s = -1.0;         ///< mission time of its hello (−1: never)
-  double lost_s = -1.0;            ///< mission time it was declared lost (−1: not lost)
+  /// Real time: setpoints whose |ω_c| the flight controller held to the turn limit at the
+  /// speed they landed at (always 0 in lock step, where a setpoint lands on its own state).
+  long long turn_setpoints_limited = 0;
+  double started_s = -1.0;  ///< mission time of its hello (−1: never)
+  double lost_s = -1.0;     ///< mission time it was declared lost (−1: not lost)
 };
 
 struct WorldNodeResult {

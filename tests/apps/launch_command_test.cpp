@@ -157,6 +157,25 @@ TEST(LaunchCommand, AnAgentThatStartsLateCatchesUpSafely) {
   EXPECT_EQ(a[2]["started_s"].get<double>(), 0.0);
 }
 
+// In real time a setpoint lands after the state it was computed from; the flight controller
+// holds its turn rate to the limit at the speed it lands at, so late setpoints never exceed
+// eq. 3 (they did by up to 0.2 % before), and the limiting is counted per agent.
+TEST(LaunchCommand, RealTimeFlightKeepsTheTurnLimitWhenSetpointsLandLate) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  ASSERT_EQ(run_cli("launch --agents-as-processes --real-time --duration-s 8 --out " + dir.string(),
+                    dir / "launch.log"),
+            0)
+      << slurp(dir / "launch.log");
+  const json m = read_json(dir / "metrics.json");
+  expect_safe(m);
+  EXPECT_LE(m["max_turn_command_ratio"].get<double>(), 1.0 + 1e-6);
+  EXPECT_EQ(m["distributed"]["mode"], "real-time");
+  for (const json& a : m["distributed"]["agents"]) {
+    EXPECT_GE(a["turn_setpoints_limited"].get<long long>(), 0);
+    EXPECT_GT(a["answers"].get<long long>(), 0);
+  }
+}
+
 TEST(LaunchCommand, MalformedMessagesAreRejectedCountedAndChangeNothing) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   ASSERT_EQ(run_cli("launch --inject-malformed --out " + dir.string(), dir / "launch.log"), 0)
