@@ -1,14 +1,15 @@
 #include "planning/trajectory_nlp.hpp"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <ceres/jet.h>
 #include <fmt/format.h>
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <numeric>
+
+#include "planning/psd_projection.hpp"
 
 namespace ridgeline::planning::detail {
 namespace {
@@ -94,27 +95,6 @@ struct Dual2 {
   }
 };
 
-// The nearest positive semidefinite matrix (in the Frobenius norm) to a symmetric h: its
-// negative eigenvalues set to zero. h' − h is itself positive semidefinite, so a sum of projected
-// element blocks only ever adds curvature to the exact Hessian.
-template <int N>
-void project_to_psd(Eigen::Matrix<double, N, N>& h) {
-  using Mat = Eigen::Matrix<double, N, N>;
-  Eigen::SelfAdjointEigenSolver<Mat> eigen;
-  if constexpr (N <= 3) {
-    eigen.computeDirect(h);  // closed form for 2×2 and 3×3
-  } else {
-    // Most blocks are already convex: an LDLᵀ with positive pivots says so at a fraction of
-    // the cost of the eigen-decomposition.
-    const Eigen::LDLT<Mat> ldlt(h);
-    if (ldlt.info() == Eigen::Success && (ldlt.vectorD().array() > 0.0).all()) return;
-    eigen.compute(h);
-  }
-  if (eigen.eigenvalues().minCoeff() >= 0.0) return;
-  h = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() *
-      eigen.eigenvectors().transpose();
-}
-
 Eigen::Matrix2d terrain_hessian(const world::Terrain& terrain, double x, double y) {
   const double h = kTerrainHessianStep_m;
   const Vec2 dx = (terrain.gradient(x + h, y) - terrain.gradient(x - h, y)) / (2.0 * h);
@@ -140,6 +120,10 @@ Vec3 nearest_on_segment(const Vec3& q, const Vec3& a, const Vec3& b, bool* inter
   return a + s * ab;
 }
 
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Mat9 = Eigen::Matrix<double, 9, 9>;
+
 struct ElementParams {
   double nominal_m = 1.0;  // ℓ
   double climb_current = 0.0;
@@ -163,16 +147,18 @@ void segment_parts(const T* a, const T* b, const ElementParams& q, T* parts) {
   parts[1] = dz * dz / q.nominal_m;  // ℓ·(d_z/ℓ)²: the grade at the nominal length
 }
 
+// cos φ between the horizontal steps u = b − a and v = c − b.
+template <typename T>
+T turn_cosine_of_steps(const T& ux, const T& uy, const T& vx, const T& vy) {
+  using std::sqrt;
+  const T eps2 = T(kNormEps_m * kNormEps_m);
+  return (ux * vx + uy * vy) / (sqrt(ux * ux + uy * uy + eps2) * sqrt(vx * vx + vy * vy + eps2));
+}
+
 // cos φ between the horizontal directions of a → b and b → c (only x, y are read).
 template <typename T>
 T turn_cosine(const T* a, const T* b, const T* c) {
-  using std::sqrt;
-  const T ux = b[0] - a[0];
-  const T uy = b[1] - a[1];
-  const T vx = c[0] - b[0];
-  const T vy = c[1] - b[1];
-  const T eps2 = T(kNormEps_m * kNormEps_m);
-  return (ux * vx + uy * vy) / (sqrt(ux * ux + uy * uy + eps2) * sqrt(vx * vx + vy * vy + eps2));
+  return turn_cosine_of_steps<T>(b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1]);
 }
 
 // Vertex b between a and c, cos φ = turn_cosine(a, b, c) given: parts[0] = κ_turn·τ·½(L_ab + L_bc)
@@ -241,13 +227,14 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
         add_row(climb, {3 * p0 + 2, 3 * p1 + 2});
       }
       segment_rows_[i][k][1] = segment_rows_[i][k][2] = -1;
-      if (u.pitch_rows) for (RowKind kind : {RowKind::kPitchUp, RowKind::kPitchDown}) {
-        segment_rows_[i][k][kind == RowKind::kPitchUp ? 1 : 2] = static_cast<int>(rows_.size());
-        Row pitch(kind, i, -1, k);
-        pitch.lower = 0.0;
-        pitch.upper = kInf;
-        add_row(pitch, {pitch_slack(i, k), 3 * p0 + 2, 3 * p1 + 2});
-      }
+      if (u.pitch_rows)
+        for (RowKind kind : {RowKind::kPitchUp, RowKind::kPitchDown}) {
+          segment_rows_[i][k][kind == RowKind::kPitchUp ? 1 : 2] = static_cast<int>(rows_.size());
+          Row pitch(kind, i, -1, k);
+          pitch.lower = 0.0;
+          pitch.upper = kInf;
+          add_row(pitch, {pitch_slack(i, k), 3 * p0 + 2, 3 * p1 + 2});
+        }
     }
     for (int k = 1; k < n; ++k) {
       const int pa = point(i, k - 1);
@@ -276,7 +263,8 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
       if (u.fixed[k]) margin = std::min(margin, fixed_slack(k));
       if (u.fixed[k + 1]) margin = std::min(margin, fixed_slack(k + 1));
       const int s = u.fixed[k] && u.fixed[k + 1] ? 0 : setup_.terrain_samples[i][k];
-      for (int j = 1; j <= s; ++j) add_terrain_row(i, k, static_cast<double>(j) / (s + 1), floor_m + margin);
+      for (int j = 1; j <= s; ++j)
+        add_terrain_row(i, k, static_cast<double>(j) / (s + 1), floor_m + margin);
     }
   }
 
@@ -292,8 +280,10 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
       row.lower = d * d;
       row.upper = kInf;
       const int k1 = std::min(c.k + 1, max_index_);
-      const Term raw[4] = {{point(c.uav_a, c.k), 1.0 - tau}, {point(c.uav_a, k1), tau},
-                           {point(c.uav_b, c.k), -(1.0 - tau)}, {point(c.uav_b, k1), -tau}};
+      const Term raw[4] = {{point(c.uav_a, c.k), 1.0 - tau},
+                           {point(c.uav_a, k1), tau},
+                           {point(c.uav_b, c.k), -(1.0 - tau)},
+                           {point(c.uav_b, k1), -tau}};
       for (const Term& t : raw) {
         if (t.weight == 0.0) continue;
         int m = 0;
@@ -302,7 +292,7 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
         row.terms[m].weight += t.weight;
       }
       const bool all_fixed = is_fixed(c.uav_a, c.k) && is_fixed(c.uav_b, c.k) &&
-                  (tau == 0.0 || (is_fixed(c.uav_a, k1) && is_fixed(c.uav_b, k1)));
+                             (tau == 0.0 || (is_fixed(c.uav_a, k1) && is_fixed(c.uav_b, k1)));
       if (all_fixed) return;
       std::vector<int> cols;
       for (int m = 0; m < row.num_terms; ++m)
@@ -312,7 +302,8 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
     };
     add(0.0);
     if (c.k < max_index_)
-      for (int j = 1; j <= c.interior_samples; ++j) add(static_cast<double>(j) / (c.interior_samples + 1));
+      for (int j = 1; j <= c.interior_samples; ++j)
+        add(static_cast<double>(j) / (c.interior_samples + 1));
   }
 
   // Constant obstacles (local re-plan: swept threats, other UAVs' references).
@@ -349,7 +340,8 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
   }
   hess_slot_.reserve(entries.size());
   for (const auto& e : entries)
-    hess_slot_.push_back(static_cast<int>(std::lower_bound(unique.begin(), unique.end(), e) - unique.begin()));
+    hess_slot_.push_back(
+        static_cast<int>(std::lower_bound(unique.begin(), unique.end(), e) - unique.begin()));
 }
 
 TrajectoryNlp::RowKey TrajectoryNlp::row_key(int row) const {
@@ -434,7 +426,8 @@ void TrajectoryNlp::pack(const std::vector<std::vector<Vec3>>& waypoints_m, doub
   std::fill(x + 3 * num_points_, x + num_variables_, 0.0);
   // Each slack at the smallest value its rows allow.
   for (const Row& row : rows_) {
-    if (row.kind != RowKind::kPitchUp && row.kind != RowKind::kPitchDown && row.kind != RowKind::kTurn)
+    if (row.kind != RowKind::kPitchUp && row.kind != RowKind::kPitchDown &&
+        row.kind != RowKind::kTurn)
       continue;
     const int s = cols_[row.col_begin];
     const double saved = x[s];
@@ -500,7 +493,8 @@ std::vector<UavCost> TrajectoryNlp::costs(const double* x, double* collision_cos
       c.range += parts[0];
       c.turn += parts[1];
       c.turn_penalty += q.nominal_m * o.turn_penalty * x[turn_slack(i, k)];
-      c.max_turn_rad = std::max(c.max_turn_rad, std::acos(std::clamp(turn_cosine(a, b, cc), -1.0, 1.0)));
+      c.max_turn_rad =
+          std::max(c.max_turn_rad, std::acos(std::clamp(turn_cosine(a, b, cc), -1.0, 1.0)));
     }
     for (int k = 0; k <= n; ++k) {
       const double* p = x + 3 * point(i, k);
@@ -519,8 +513,8 @@ std::vector<UavCost> TrajectoryNlp::costs(const double* x, double* collision_cos
     double r2 = 0.0;
     for (int d = 0; d < 3; ++d) r2 += (a[d] - b[d]) * (a[d] - b[d]);
     const double e = std::max(0.0, 1.0 - r2 / dc2);
-    const double l = 0.5 * (setup_.uavs[cand.uav_a].nominal_length_m +
-                            setup_.uavs[cand.uav_b].nominal_length_m);
+    const double l =
+        0.5 * (setup_.uavs[cand.uav_a].nominal_length_m + setup_.uavs[cand.uav_b].nominal_length_m);
     col += l * e * e;
   }
   if (collision_cost != nullptr) *collision_cost = col;
@@ -554,7 +548,8 @@ void TrajectoryNlp::gradient(const double* x, double* grad) const {
         grad[va + d] += f.v[d];
         grad[vb + d] += f.v[3 + d];
       }
-      if (u.pitch_rows) grad[pitch_slack(i, k)] += l1 * o.weight_pitch * q.nominal_m * o.pitch_penalty;
+      if (u.pitch_rows)
+        grad[pitch_slack(i, k)] += l1 * o.weight_pitch * q.nominal_m * o.pitch_penalty;
     }
     for (int k = 1; k < n; ++k) {
       const int v[3] = {3 * point(i, k - 1), 3 * point(i, k), 3 * point(i, k + 1)};
@@ -589,8 +584,8 @@ void TrajectoryNlp::gradient(const double* x, double* grad) const {
     }
     const double e = 1.0 - r2 / dc2;
     if (e <= 0.0) continue;
-    const double l = 0.5 * (setup_.uavs[cand.uav_a].nominal_length_m +
-                            setup_.uavs[cand.uav_b].nominal_length_m);
+    const double l =
+        0.5 * (setup_.uavs[cand.uav_a].nominal_length_m + setup_.uavs[cand.uav_b].nominal_length_m);
     // d/dr of l·e² = l·2e·(−2r/D_c²)
     const double c = o.lambda_collision * l * 2.0 * e * (-2.0 / dc2);
     for (int d = 0; d < 3; ++d) {
@@ -761,81 +756,71 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
     const ElementParams q{u.nominal_length_m, o.climb_current, o.turn_current, o.speed_current};
     const int n = u.segments();
     for (int k = 0; k < n; ++k) {
-      using D = Dual2<6>;
+      // Every term of a segment depends on its step d = p_{k+1} − p_k only, so its 6 × 6 block
+      // is [G −G; −G G] = (v vᵀ) ⊗ G with v = (−1, 1) and G the 3 × 3 Hessian in d; v vᵀ has
+      // the single non-zero eigenvalue 2, so the block's PSD projection is (v vᵀ) ⊗ P(G): AD in
+      // the 3 components of d and a 3 × 3 projection give the same block as AD in all 6.
+      using D = Dual2<3>;
       const int v0 = 3 * point(i, k);
       const int v1 = 3 * point(i, k + 1);
-      const int v[6] = {v0, v0 + 1, v0 + 2, v1, v1 + 1, v1 + 2};
-      D a[3];
-      D b[3];
-      for (int d = 0; d < 3; ++d) {
-        a[d] = D::variable(x[v0 + d], d);
-        b[d] = D::variable(x[v1 + d], 3 + d);
-      }
+      const D origin[3];  // a = 0, b = d: segment_parts reads only b − a
+      D step[3];
+      for (int c = 0; c < 3; ++c) step[c] = D::variable(x[v1 + c] - x[v0 + c], c);
       D parts[2];
-      segment_parts(a, b, q, parts);
+      segment_parts(origin, step, q, parts);
       D f = l1 * (o.weight_range * parts[0] + o.weight_pitch * parts[1]);
       const std::array<int, 3>& r = segment_rows_[i][k];
-      const D dx = b[0] - a[0];
-      const D dy = b[1] - a[1];
-      const D h2 = dx * dx + dy * dy;
-      if (r[0] >= 0) f += lambda[r[0]] * h2;  // speed row (the pitch rows are linear)
-      if (convex) project_to_psd(f.H);
-      for (int m = 0; m < 6; ++m)
-        for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], f.H(m, c));
+      // The speed row |d_xy|² (the pitch rows are linear).
+      if (r[0] >= 0) f += lambda[r[0]] * (step[0] * step[0] + step[1] * step[1]);
+      Eigen::Matrix3d G = f.H;
+      if (convex) project_to_psd(G);
+      for (int m = 0; m < 3; ++m)
+        for (int c = 0; c <= m; ++c) add(v0 + m, v0 + c, G(m, c));
+      for (int m = 0; m < 3; ++m)
+        for (int c = 0; c < 3; ++c) add(v1 + m, v0 + c, -G(m, c));
+      for (int m = 0; m < 3; ++m)
+        for (int c = 0; c <= m; ++c) add(v1 + m, v1 + c, G(m, c));
     }
     for (int k = 1; k < n; ++k) {
       // f = l1·(w1·κ_turn·τ·½(L_ab + L_bc) + w3·ℓ·τ) + λ·cos φ = τ·(A − λ) + λ with
-      // τ = 1 − cos φ (x, y of a, b, c only) and A = l1·(w1·κ_turn·½(L_ab + L_bc) + w3·ℓ), so
-      // ∇²f = (A − λ)∇²τ + τ∇²A + ∇τ∇Aᵀ + ∇A∇τᵀ: τ by forward AD in 6 variables, the lengths
-      // in closed form (∇L = d/L, ∇²L = (I − d dᵀ/L²)/L on d), instead of AD in all 9.
-      using D = Dual2<6>;
-      int v[9];
-      Eigen::Matrix<double, 9, 1> xs;
-      for (int m = 0; m < 3; ++m) {
-        const int base = 3 * point(i, k - 1 + m);
-        for (int d = 0; d < 3; ++d) {
-          v[3 * m + d] = base + d;
-          xs[3 * m + d] = x[base + d];
-        }
-      }
-      constexpr int kXy[6] = {0, 1, 3, 4, 6, 7};  // x, y of a, b, c among the 9
-      D pxy[3][2];
-      for (int m = 0; m < 3; ++m)
-        for (int d = 0; d < 2; ++d) pxy[m][d] = D::variable(xs[3 * m + d], 2 * m + d);
-      const D tau = 1.0 - turn_cosine(pxy[0], pxy[1], pxy[2]);
+      // τ = 1 − cos φ and A = l1·(w1·κ_turn·½(L_ab + L_bc) + w3·ℓ). Every term depends on the
+      // steps u = b − a and w = c − b only, so the 9 × 9 block is Dᵀ G D with G the 6 × 6
+      // Hessian in (u, w):
+      //   G = (A − λ)∇²τ + τ∇²A + ∇τ∇Aᵀ + ∇A∇τᵀ,
+      // τ by forward AD in (u_x, u_y, w_x, w_y), the lengths in closed form (∇L = d/L,
+      // ∇²L = (I − d dᵀ/L²)/L on d). The block and its projection: three_point_block().
+      using D = Dual2<4>;
+      const int va = 3 * point(i, k - 1);
+      const int vb = 3 * point(i, k);
+      const int vc = 3 * point(i, k + 1);
+      const Vec3 d_ab(x[vb] - x[va], x[vb + 1] - x[va + 1], x[vb + 2] - x[va + 2]);
+      const Vec3 d_bc(x[vc] - x[vb], x[vc + 1] - x[vb + 1], x[vc + 2] - x[vb + 2]);
+      const D tau = 1.0 - turn_cosine_of_steps(D::variable(d_ab.x(), 0), D::variable(d_ab.y(), 1),
+                                               D::variable(d_bc.x(), 2), D::variable(d_bc.y(), 3));
       const double row_lambda = lambda[turn_rows_[i][k]];
       const double c_len = l1 * o.weight_range * q.turn_current * 0.5;
-      const Vec3 d_ab = xs.segment<3>(3) - xs.segment<3>(0);
-      const Vec3 d_bc = xs.segment<3>(6) - xs.segment<3>(3);
       const double L_ab = std::sqrt(d_ab.squaredNorm() + kNormEps_m * kNormEps_m);
       const double L_bc = std::sqrt(d_bc.squaredNorm() + kNormEps_m * kNormEps_m);
       const double A = c_len * (L_ab + L_bc) + l1 * o.weight_turn * q.nominal_m;
-      Eigen::Matrix<double, 9, 1> grad_A = Eigen::Matrix<double, 9, 1>::Zero();
-      grad_A.segment<3>(0) -= c_len * d_ab / L_ab;
-      grad_A.segment<3>(3) += c_len * (d_ab / L_ab - d_bc / L_bc);
-      grad_A.segment<3>(6) += c_len * d_bc / L_bc;
-      Eigen::Matrix<double, 9, 1> grad_tau = Eigen::Matrix<double, 9, 1>::Zero();
-      Eigen::Matrix<double, 9, 9> H = Eigen::Matrix<double, 9, 9>::Zero();
-      for (int m = 0; m < 6; ++m) {
+      Vec6 grad_A;
+      grad_A << c_len * d_ab / L_ab, c_len * d_bc / L_bc;
+      constexpr int kXy[4] = {0, 1, 3, 4};  // u_x, u_y, w_x, w_y among (u, w)
+      Vec6 grad_tau = Vec6::Zero();
+      Mat6 G = Mat6::Zero();
+      for (int m = 0; m < 4; ++m) {
         grad_tau[kXy[m]] = tau.g[m];
-        for (int c = 0; c < 6; ++c) H(kXy[m], kXy[c]) = (A - row_lambda) * tau.H(m, c);
+        for (int c = 0; c < 4; ++c) G(kXy[m], kXy[c]) = (A - row_lambda) * tau.H(m, c);
       }
-      const Eigen::Matrix3d M_ab =
-          (Eigen::Matrix3d::Identity() - d_ab * d_ab.transpose() / (L_ab * L_ab)) / L_ab;
-      const Eigen::Matrix3d M_bc =
-          (Eigen::Matrix3d::Identity() - d_bc * d_bc.transpose() / (L_bc * L_bc)) / L_bc;
       const double w = tau.v * c_len;
-      H.block<3, 3>(0, 0) += w * M_ab;
-      H.block<3, 3>(0, 3) -= w * M_ab;
-      H.block<3, 3>(3, 0) -= w * M_ab;
-      H.block<3, 3>(3, 3) += w * (M_ab + M_bc);
-      H.block<3, 3>(3, 6) -= w * M_bc;
-      H.block<3, 3>(6, 3) -= w * M_bc;
-      H.block<3, 3>(6, 6) += w * M_bc;
-      H += grad_tau * grad_A.transpose() + grad_A * grad_tau.transpose();
-      if (convex) project_to_psd(H);
+      G.block<3, 3>(0, 0) +=
+          (w / L_ab) * (Eigen::Matrix3d::Identity() - d_ab * d_ab.transpose() / (L_ab * L_ab));
+      G.block<3, 3>(3, 3) +=
+          (w / L_bc) * (Eigen::Matrix3d::Identity() - d_bc * d_bc.transpose() / (L_bc * L_bc));
+      G += grad_tau * grad_A.transpose() + grad_A * grad_tau.transpose();
+      const Mat9 H = three_point_block(G, convex);
+      const int v[3] = {va, vb, vc};
       for (int m = 0; m < 9; ++m)
-        for (int c = 0; c <= m; ++c) add_lower(v[m], v[c], H(m, c));
+        for (int c = 0; c <= m; ++c) add(v[m / 3] + m % 3, v[c / 3] + c % 3, H(m, c));
     }
     const double coef = l1 * o.weight_altitude * q.nominal_m / o.altitude_scale_m;
     for (int k = 0; k <= n; ++k) {
@@ -909,8 +894,8 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
     const int vb = 3 * point(cand.uav_b, cand.k);
     const Vec3 r(x[va] - x[vb], x[va + 1] - x[vb + 1], x[va + 2] - x[vb + 2]);
     const double e = 1.0 - r.squaredNorm() / dc2;
-    const double l = 0.5 * (setup_.uavs[cand.uav_a].nominal_length_m +
-                            setup_.uavs[cand.uav_b].nominal_length_m);
+    const double l =
+        0.5 * (setup_.uavs[cand.uav_a].nominal_length_m + setup_.uavs[cand.uav_b].nominal_length_m);
     // ∇²_r of l·e² = l·(8 r rᵀ/D⁴ − 4e/D²·I) while e > 0, else 0.
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     if (e > 0.0)
@@ -957,9 +942,10 @@ std::string TrajectoryNlp::describe(const Row& row) const {
     case RowKind::kTurn:
       return fmt::format("turn slack (eq. 18) of UAV {} at waypoint {}", name, row.k);
     case RowKind::kTerrain:
-      return fmt::format("terrain clearance (eq. 19-20) of UAV {} on segment {} at {:.2f} of its "
-                         "length (t = {:.1f} s)",
-                         name, row.k, row.tau, (row.k + row.tau) * dt);
+      return fmt::format(
+          "terrain clearance (eq. 19-20) of UAV {} on segment {} at {:.2f} of its "
+          "length (t = {:.1f} s)",
+          name, row.k, row.tau, (row.k + row.tau) * dt);
     case RowKind::kSeparation:
       return fmt::format("separation (eq. 21) of UAVs {} and {} at t = {:.1f} s", name,
                          setup_.uavs[row.other].name, (row.k + row.tau) * dt);
@@ -992,7 +978,8 @@ std::string TrajectoryNlp::worst_rows(const double* x, int max_lines) const {
     const Vec3 pb(b[0], b[1], b[2]);
     misses.push_back({amount, r, pa + row.tau * (pb - pa)});
   }
-  std::sort(misses.begin(), misses.end(), [](const Miss& l, const Miss& r) { return l.amount > r.amount; });
+  std::sort(misses.begin(), misses.end(),
+            [](const Miss& l, const Miss& r) { return l.amount > r.amount; });
   std::string out;
   for (int m = 0; m < static_cast<int>(misses.size()) && m < max_lines; ++m) {
     const Row& row = rows_[misses[m].row];

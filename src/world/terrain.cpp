@@ -23,11 +23,16 @@ void require_positive(double value, const std::string& field) {
   }
 }
 
-// h·e of one peak (eq. 12's term) at (x, y).
-double peak_value(const Peak& p, double x_m, double y_m) {
+// The exponent q = ((x − x0)/a)² + ((y − y0)/b)² of one peak at (x, y).
+double peak_exponent(const Peak& p, double x_m, double y_m) {
   const double dx = (x_m - p.x_m) / p.sigma_x_m;
   const double dy = (y_m - p.y_m) / p.sigma_y_m;
-  return p.height_m * std::exp(-(dx * dx + dy * dy));
+  return dx * dx + dy * dy;
+}
+
+// h·e of one peak (eq. 12's term) at (x, y).
+double peak_value(const Peak& p, double x_m, double y_m) {
+  return p.height_m * std::exp(-peak_exponent(p, x_m, y_m));
 }
 
 Vec2 peak_gradient(const Peak& p, double value, double x_m, double y_m) {
@@ -57,6 +62,24 @@ void validate_peak_terrain_config(const PeakTerrainConfig& config, const std::st
 PeakTerrain::PeakTerrain(PeakTerrainConfig config, const std::string& path)
     : config_(std::move(config)) {
   validate_peak_terrain_config(config_, path);
+  for (const Peak& p : config_.peaks) log_height_.push_back(std::log(p.height_m));
+}
+
+const Peak* PeakTerrain::dominant(double x_m, double y_m, double* value) const {
+  const Peak* best = nullptr;
+  double best_score = 0.0;
+  double best_exponent = 0.0;
+  for (std::size_t i = 0; i < config_.peaks.size(); ++i) {
+    const double q = peak_exponent(config_.peaks[i], x_m, y_m);
+    const double score = log_height_[i] - q;  // ln(h·e)
+    if (best == nullptr || score > best_score) {
+      best = &config_.peaks[i];
+      best_score = score;
+      best_exponent = q;
+    }
+  }
+  *value = best == nullptr ? 0.0 : best->height_m * std::exp(-best_exponent);
+  return best;
 }
 
 double PeakTerrain::height(double x_m, double y_m) const {
@@ -64,8 +87,7 @@ double PeakTerrain::height(double x_m, double y_m) const {
   if (config_.combination == PeakCombination::kSum) {
     for (const Peak& p : config_.peaks) field += peak_value(p, x_m, y_m);
   } else {
-    // Every term is > 0, so 0 is a valid identity for the max.
-    for (const Peak& p : config_.peaks) field = std::max(field, peak_value(p, x_m, y_m));
+    dominant(x_m, y_m, &field);
   }
   return config_.base_elevation_m + field;
 }
@@ -76,16 +98,9 @@ Vec2 PeakTerrain::gradient(double x_m, double y_m) const {
     for (const Peak& p : config_.peaks) g += peak_gradient(p, peak_value(p, x_m, y_m), x_m, y_m);
     return g;
   }
-  double best = -1.0;
-  const Peak* dominant = nullptr;
-  for (const Peak& p : config_.peaks) {
-    const double value = peak_value(p, x_m, y_m);
-    if (value > best) {
-      best = value;
-      dominant = &p;
-    }
-  }
-  if (dominant != nullptr) g = peak_gradient(*dominant, best, x_m, y_m);
+  double value = 0.0;
+  const Peak* peak = dominant(x_m, y_m, &value);
+  if (peak != nullptr) g = peak_gradient(*peak, value, x_m, y_m);
   return g;
 }
 

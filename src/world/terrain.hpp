@@ -72,7 +72,13 @@ class PeakTerrain : public Terrain {
   const PeakTerrainConfig& config() const { return config_; }
 
  private:
+  /// For `max`: the dominant peak at (x, y) and its value h·e (nullptr without peaks). It
+  /// compares ln h_i − q_i, q_i the exponent, so one exp is taken instead of one per peak; the
+  /// same peak as comparing the values h_i·e_i except where two differ by round-off.
+  const Peak* dominant(double x_m, double y_m, double* value) const;
+
   PeakTerrainConfig config_;
+  std::vector<double> log_height_;  ///< ln h_i
 };
 
 /// A raster terrain: bilinear interpolation of a RasterGrid (see raster_grid.hpp for the

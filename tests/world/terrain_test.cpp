@@ -72,6 +72,50 @@ TEST(PeakTerrainTest, GradientMatchesCentralDifferencesForBothVariants) {
   }
 }
 
+// The max field picks its dominant peak by ln h_i − q_i (one exp a query); a brute-force
+// reference takes every peak's value h_i·exp(−q_i) and the largest (lowest index on a tie).
+// Away from ties the two pick the same peak and so agree bit for bit; 12 random peaks of very
+// different heights and widths, points spread over and beyond them (including where every term
+// underflows to 0).
+TEST(PeakTerrainTest, MaxFieldMatchesBruteForceOverAllPeaks) {
+  Rng rng(17);
+  PeakTerrainConfig config;
+  config.combination = PeakCombination::kMax;
+  config.base_elevation_m = -4.0;
+  for (int i = 0; i < 12; ++i)
+    config.peaks.push_back({rng.uniform(0, 2000), rng.uniform(0, 2000), rng.uniform(1, 400),
+                            rng.uniform(5, 400), rng.uniform(5, 400)});
+  const PeakTerrain terrain(config);
+  int compared = 0;
+  for (int k = 0; k < 5000; ++k) {
+    const double x = rng.uniform(-3000, 5000);
+    const double y = rng.uniform(-3000, 5000);
+    double best = -1.0;
+    double second = -1.0;
+    const Peak* dominant = nullptr;
+    for (const Peak& p : config.peaks) {
+      const double dx = (x - p.x_m) / p.sigma_x_m;
+      const double dy = (y - p.y_m) / p.sigma_y_m;
+      const double value = p.height_m * std::exp(-(dx * dx + dy * dy));
+      if (value > best) {
+        second = best;
+        best = value;
+        dominant = &p;
+      } else {
+        second = std::max(second, value);
+      }
+    }
+    const Vec2 gradient(-2.0 * best * (x - dominant->x_m) / std::pow(dominant->sigma_x_m, 2),
+                        -2.0 * best * (y - dominant->y_m) / std::pow(dominant->sigma_y_m, 2));
+    // A near-tie may pick the other peak (same height to round-off, another gradient).
+    if (best > 0.0 && best - second < 1e-12 * best) continue;
+    EXPECT_EQ(terrain.height(x, y), config.base_elevation_m + best) << x << ", " << y;
+    EXPECT_EQ(terrain.gradient(x, y), gradient) << x << ", " << y;
+    ++compared;
+  }
+  EXPECT_GT(compared, 4900);
+}
+
 TEST(PeakTerrainTest, RejectsBadConfigNamingTheField) {
   PeakTerrainConfig config = two_peaks(PeakCombination::kMax);
   config.peaks.resize(4, config.peaks[0]);
