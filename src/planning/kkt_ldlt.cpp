@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 
 namespace ridgeline::planning {
@@ -153,7 +154,7 @@ void SparseLdlt::analyze(int n, std::span<const int> rows, std::span<const int> 
   }
   std::fill(permuted_.valuePtr(), permuted_.valuePtr() + entries.size(), 0.0);
   factor_->ldlt.analyzePattern(permuted_);
-  work_.assign(static_cast<std::size_t>(n), 0.0);
+  work_.assign(3 * static_cast<std::size_t>(n), 0.0);
   negative_pivots_ = 0;
 }
 
@@ -164,6 +165,15 @@ SparseLdlt::Status SparseLdlt::factorize(std::span<const double> values) {
   for (std::size_t k = 0; k < slot_.size(); ++k) v[slot_[k]] += values[k];
   factor_->ldlt.factorize(permuted_);
   negative_pivots_ = 0;
+  // ‖A‖∞ (largest row sum of |a_ij|) for the refinement's stopping test.
+  Eigen::VectorXd row_sums = Eigen::VectorXd::Zero(n_);
+  for (int c = 0; c < n_; ++c)
+    for (Eigen::SparseMatrix<double, Eigen::ColMajor, int>::InnerIterator it(permuted_, c); it;
+         ++it) {
+      row_sums[it.row()] += std::abs(it.value());
+      if (it.row() != c) row_sums[c] += std::abs(it.value());
+    }
+  a_norm_ = n_ > 0 ? row_sums.maxCoeff() : 0.0;
   if (factor_->ldlt.info() != Eigen::Success) return Status::kSingular;
   const auto d = factor_->ldlt.vectorD();
   for (Eigen::Index i = 0; i < d.size(); ++i) {
@@ -176,12 +186,31 @@ SparseLdlt::Status SparseLdlt::factorize(std::span<const double> values) {
 
 void SparseLdlt::solve(std::span<double> rhs) const {
   assert(static_cast<int>(rhs.size()) == n_);
-  Eigen::Map<Eigen::VectorXd> b(work_.data(), n_);
+  // In the pivot order throughout: b, the solution x and the residual r = b − P A Pᵀ x.
+  Eigen::Map<Eigen::VectorXd> x(work_.data(), n_);
+  Eigen::Map<Eigen::VectorXd> b(work_.data() + n_, n_);
+  Eigen::Map<Eigen::VectorXd> r(work_.data() + 2 * static_cast<std::ptrdiff_t>(n_), n_);
   for (int k = 0; k < n_; ++k) b[k] = rhs[static_cast<std::size_t>(order_[k])];
-  factor_->ldlt.matrixL().solveInPlace(b);
-  b = b.cwiseQuotient(factor_->ldlt.vectorD());
-  factor_->ldlt.matrixU().solveInPlace(b);
-  for (int k = 0; k < n_; ++k) rhs[static_cast<std::size_t>(order_[k])] = b[k];
+  auto apply_inverse = [&](Eigen::Map<Eigen::VectorXd>& v) {
+    factor_->ldlt.matrixL().solveInPlace(v);
+    v = v.cwiseQuotient(factor_->ldlt.vectorD());
+    factor_->ldlt.matrixU().solveInPlace(v);
+  };
+  x = b;
+  apply_inverse(x);
+  // Iterative refinement: the condensed pivots can lose digits when the barrier terms span
+  // many orders of magnitude near a solution; a few residual corrections give back a
+  // backward-stable solve (what MUMPS's pivoting gives Ipopt), at the cost of a sparse
+  // product and a solve each.
+  const double b_norm = b.lpNorm<Eigen::Infinity>();
+  for (int step = 0; step < kMaxRefinementSteps; ++step) {
+    r = b - permuted_.selfadjointView<Eigen::Lower>() * x;
+    const double bound = kRefinementTolerance * (a_norm_ * x.lpNorm<Eigen::Infinity>() + b_norm);
+    if (!(r.lpNorm<Eigen::Infinity>() > bound)) break;
+    apply_inverse(r);
+    x += r;
+  }
+  for (int k = 0; k < n_; ++k) rhs[static_cast<std::size_t>(order_[k])] = x[k];
 }
 
 long SparseLdlt::factor_nonzeros() const {
@@ -287,7 +316,9 @@ void ma27cd(ipfint* n, double* /*a*/, ipfint* /*la*/, ipfint* iw, ipfint* /*liw*
 }  // namespace
 
 IpoptKktSolver::IpoptKktSolver() : first_handle_(registry.ldlt.size()) {
-  LSL_setMA27(&ma27ad, &ma27bd, &ma27cd, &ma27id);
+  // Ipopt's loader keeps the entry points in globals: set them once, not from every thread.
+  static std::once_flag registered;
+  std::call_once(registered, [] { LSL_setMA27(&ma27ad, &ma27bd, &ma27cd, &ma27id); });
   ++registry.active;
 }
 

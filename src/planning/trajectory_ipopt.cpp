@@ -166,6 +166,10 @@ IpoptSolve solve_with_ipopt(const TrajectoryNlp& nlp, std::vector<double> x0,
     app->Options()->SetIntegerValue("mumps_pivot_order", 0);
   }
   app->Options()->SetIntegerValue("min_refinement_steps", 0);
+  // Second-order corrections (Ipopt's default: up to 4 a step) made Ipopt cycle on these
+  // problems: near a solution a rejected step's correction was accepted as a large jump away
+  // from it, over and over until the iteration limit (options.second_order_corrections).
+  if (!options.second_order_corrections) app->Options()->SetIntegerValue("max_soc", 0);
   app->Options()->SetNumericValue("tol", options.tolerance);
   app->Options()->SetNumericValue("constr_viol_tol", options.constraint_tolerance);
   app->Options()->SetIntegerValue("max_iter", options.max_iterations);

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "planning/team_scenarios.hpp"
@@ -163,6 +164,34 @@ TEST(IpoptKktSolver, PlansTheSameTrajectoriesAsMumps) {
     for (std::size_t k = 0; k < ours.paths[i].waypoints_m.size(); ++k)
       EXPECT_LT((ours.paths[i].waypoints_m[k] - mumps.paths[i].waypoints_m[k]).norm(), 0.05)
           << "UAV " << i << " waypoint " << k;
+  }
+}
+
+// Monte Carlo plans on several threads at once: each thread's Ipopt solves keep their own
+// factorizations, and the plans equal the ones made alone.
+TEST(IpoptKktSolver, ConcurrentSolvesOnSeveralThreadsMatchTheSequentialOnes) {
+  const world::PeakTerrain terrain = default_like_terrain();
+  std::vector<TrajectoryProblem> problems = {straight_line_team(terrain, 2),
+                                             straight_line_team(terrain, 3)};
+  TrajectoryOptimizerOptions o;
+  o.waypoints_per_uav = 30;
+  std::vector<double> alone;
+  for (const TrajectoryProblem& p : problems) {
+    const TrajectoryResult r = optimize_trajectories(p, o);
+    ASSERT_TRUE(r.ok()) << to_string(r.status) << ": " << r.message;
+    alone.push_back(r.objective);
+  }
+  std::vector<double> together(problems.size(), 0.0);
+  std::vector<std::thread> threads;
+  for (std::size_t k = 0; k < problems.size(); ++k)
+    threads.emplace_back([&, k] {
+      for (int repeat = 0; repeat < 3; ++repeat)
+        together[k] = optimize_trajectories(problems[k], o).objective;
+    });
+  for (std::thread& t : threads) t.join();
+  for (std::size_t k = 0; k < problems.size(); ++k) {
+    EXPECT_GT(alone[k], 0.0);
+    EXPECT_EQ(together[k], alone[k]) << "problem " << k;
   }
 }
 
