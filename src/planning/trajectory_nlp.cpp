@@ -781,6 +781,9 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       for (int m = 0; m < 3; ++m)
         for (int c = 0; c <= m; ++c) add(v1 + m, v1 + c, G(m, c));
     }
+    // The turn blocks: all G (or, convexified, all S = Kᵀ G K) first, so that the indefinite
+    // ones are eigen-decomposed together (project_to_psd_batch, the same result as one by one).
+    std::vector<Mat6> turn_blocks(static_cast<std::size_t>(std::max(n - 1, 0)));
     for (int k = 1; k < n; ++k) {
       // f = l1·(w1·κ_turn·τ·½(L_ab + L_bc) + w3·ℓ·τ) + λ·cos φ = τ·(A − λ) + λ with
       // τ = 1 − cos φ and A = l1·(w1·κ_turn·½(L_ab + L_bc) + w3·ℓ). Every term depends on the
@@ -788,7 +791,7 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       // Hessian in (u, w):
       //   G = (A − λ)∇²τ + τ∇²A + ∇τ∇Aᵀ + ∇A∇τᵀ,
       // τ by forward AD in (u_x, u_y, w_x, w_y), the lengths in closed form (∇L = d/L,
-      // ∇²L = (I − d dᵀ/L²)/L on d). The block and its projection: three_point_block().
+      // ∇²L = (I − d dᵀ/L²)/L on d). The 9 × 9 block and its projection: three_point_block().
       using D = Dual2<4>;
       const int va = 3 * point(i, k - 1);
       const int vb = 3 * point(i, k);
@@ -817,8 +820,13 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       G.block<3, 3>(3, 3) +=
           (w / L_bc) * (Eigen::Matrix3d::Identity() - d_bc * d_bc.transpose() / (L_bc * L_bc));
       G += grad_tau * grad_A.transpose() + grad_A * grad_tau.transpose();
-      const Mat9 H = three_point_block(G, convex);
-      const int v[3] = {va, vb, vc};
+      turn_blocks[k - 1] = convex ? three_point_reduce(G) : G;
+    }
+    if (convex) project_to_psd_batch(turn_blocks.data(), static_cast<int>(turn_blocks.size()));
+    for (int k = 1; k < n; ++k) {
+      const Mat9 H = convex ? three_point_expand(turn_blocks[k - 1])
+                            : three_point_block(turn_blocks[k - 1], false);
+      const int v[3] = {3 * point(i, k - 1), 3 * point(i, k), 3 * point(i, k + 1)};
       for (int m = 0; m < 9; ++m)
         for (int c = 0; c <= m; ++c) add(v[m / 3] + m % 3, v[c / 3] + c % 3, H(m, c));
     }

@@ -140,6 +140,35 @@ TEST(ProjectToPsd, MatchesClampedEigenDecomposition) {
   check_projection<9>(8);
 }
 
+// The batch interleaves the matrices rotation by rotation; each must come out bit for bit as
+// alone (the NLP relies on it: its Hessian must not depend on how blocks are grouped). 150+
+// matrices span several batches and chunks, with positive definite ones mixed in.
+TEST(ProjectToPsd, BatchGivesExactlyTheResultsOfOneByOne) {
+  std::vector<Mat<6>> blocks = test_matrices<6>(12);
+  for (std::size_t m = 0; m < blocks.size(); m += 3) blocks[m] += 50.0 * Mat<6>::Identity();
+  std::vector<Mat<6>> batch = blocks;
+  project_to_psd_batch<6>(batch.data(), static_cast<int>(batch.size()));
+  int changed = 0;
+  for (std::size_t m = 0; m < blocks.size(); ++m) {
+    Mat<6> one = blocks[m];
+    project_to_psd(one);
+    EXPECT_EQ(batch[m], one) << "block " << m;
+    if (batch[m] != blocks[m]) ++changed;
+  }
+  EXPECT_GT(changed, 50);
+  EXPECT_LT(changed, static_cast<int>(blocks.size()));
+  std::vector<Vec<6>> mu(blocks.size());
+  std::vector<Mat<6>> v(blocks.size());
+  jacobi_eigen_batch<6>(blocks.data(), mu.data(), v.data(), static_cast<int>(blocks.size()));
+  for (std::size_t m = 0; m < blocks.size(); ++m) {
+    Vec<6> mu1;
+    Mat<6> v1;
+    jacobi_eigen<6>(blocks[m], &mu1, &v1);
+    EXPECT_EQ(mu[m], mu1);
+    EXPECT_EQ(v[m], v1);
+  }
+}
+
 TEST(ProjectToPsd, PositiveDefiniteMatricesStayExactlyAsTheyAre) {
   std::mt19937 rng(9);
   std::normal_distribution<double> normal(0.0, 1.0);
