@@ -14,14 +14,12 @@ namespace ridgeline::planning {
 
 struct SparseLdlt::Factor {
   // The order is ours (already applied to `permuted_`), so Eigen keeps it as it is.
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double, Eigen::ColMajor, int>, Eigen::Lower,
-                        Eigen::NaturalOrdering<int>>
-      ldlt;
+  Eigen::SimplicialLDLT<Matrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt;
 };
 
 namespace {
 
-using Pattern = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+using Pattern = SparseLdlt::Matrix;
 
 // Approximate minimum degree order of a symmetric pattern (both triangles): Eigen's AMD, which
 // needs the diagonal present (without it, it returns the identity) and returns P⁻¹, whose
@@ -108,7 +106,7 @@ void SparseLdlt::analyze(int n, std::span<const int> rows, std::span<const int> 
       throw std::invalid_argument("SparseLdlt: triplet index out of range");
 
   // The symmetric pattern (both triangles, no diagonal) for the ordering and the degrees.
-  Eigen::SparseMatrix<double, Eigen::ColMajor, int> pattern(n, n);
+  Pattern pattern(n, n);
   {
     std::vector<Eigen::Triplet<double, int>> t;
     t.reserve(2 * nz);
@@ -165,15 +163,6 @@ SparseLdlt::Status SparseLdlt::factorize(std::span<const double> values) {
   for (std::size_t k = 0; k < slot_.size(); ++k) v[slot_[k]] += values[k];
   factor_->ldlt.factorize(permuted_);
   negative_pivots_ = 0;
-  // ‖A‖∞ (largest row sum of |a_ij|) for the refinement's stopping test.
-  Eigen::VectorXd row_sums = Eigen::VectorXd::Zero(n_);
-  for (int c = 0; c < n_; ++c)
-    for (Eigen::SparseMatrix<double, Eigen::ColMajor, int>::InnerIterator it(permuted_, c); it;
-         ++it) {
-      row_sums[it.row()] += std::abs(it.value());
-      if (it.row() != c) row_sums[c] += std::abs(it.value());
-    }
-  a_norm_ = n_ > 0 ? row_sums.maxCoeff() : 0.0;
   if (factor_->ldlt.info() != Eigen::Success) return Status::kSingular;
   const auto d = factor_->ldlt.vectorD();
   for (Eigen::Index i = 0; i < d.size(); ++i) {
@@ -181,6 +170,16 @@ SparseLdlt::Status SparseLdlt::factorize(std::span<const double> values) {
     if (!std::isfinite(d[i]) || std::abs(d[i]) < 1e-300) return Status::kSingular;
     if (d[i] < 0.0) ++negative_pivots_;
   }
+  // ‖A‖∞ (largest row sum of |a_ij|) for the refinement's stopping test, in solve's first
+  // work slot (the lower triangle holds each off-diagonal entry once: count it in both rows).
+  Eigen::Map<Eigen::VectorXd> row_sums(work_.data(), n_);
+  row_sums.setZero();
+  for (int c = 0; c < n_; ++c)
+    for (Matrix::InnerIterator it(permuted_, c); it; ++it) {
+      row_sums[it.row()] += std::abs(it.value());
+      if (it.row() != c) row_sums[c] += std::abs(it.value());
+    }
+  a_norm_ = n_ > 0 ? row_sums.maxCoeff() : 0.0;
   return Status::kOk;
 }
 
@@ -211,10 +210,6 @@ void SparseLdlt::solve(std::span<double> rhs) const {
     x += r;
   }
   for (int k = 0; k < n_; ++k) rhs[static_cast<std::size_t>(order_[k])] = x[k];
-}
-
-long SparseLdlt::factor_nonzeros() const {
-  return static_cast<long>(factor_->ldlt.matrixL().nestedExpression().nonZeros());
 }
 
 // ----- Ipopt's MA27 calling convention ---------------------------------------------------

@@ -34,6 +34,8 @@ namespace ridgeline::planning {
 
 class SparseLdlt {
  public:
+  using Matrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
   SparseLdlt();
   ~SparseLdlt();
   SparseLdlt(const SparseLdlt&) = delete;
@@ -54,15 +56,13 @@ class SparseLdlt {
   void solve(std::span<double> rhs) const;
 
   int size() const { return n_; }
-  /// Non-zeros of L (without its unit diagonal).
-  long factor_nonzeros() const;
 
  private:
   struct Factor;  // Eigen's SimplicialLDLT on the permuted pattern
   int n_ = 0;
   std::vector<int> order_;  ///< order_[k]: the original row pivoted k-th
   std::vector<int> slot_;   ///< triplet → index into the permuted lower CSC's values
-  Eigen::SparseMatrix<double, Eigen::ColMajor, int> permuted_;  ///< lower triangle of P A Pᵀ
+  Matrix permuted_;         ///< lower triangle of P A Pᵀ
   std::unique_ptr<Factor> factor_;
   int negative_pivots_ = 0;
   double a_norm_ = 0.0;  ///< ‖A‖∞ of the last factorized values
