@@ -65,7 +65,7 @@ void register_fly_command(CLI::App& app) {
     o.tracker = sim::make_tracker_options(sc, uav);
     o.flight_duration_s = args->duration_s.value_or(reference->end_time_s());
     o.home_altitude_m = home_altitude_m(sc);
-    mavlink::OffboardPilot pilot(o, reference, loaded.terrain);
+    mavlink::OffboardPilot pilot(o, sc.safety, reference, loaded.terrain);
     mavlink::UdpLink link = mavlink::UdpLink::connect(host, port);
     std::cerr << fmt::format("fly: {} ({}) over MAVLink to {}:{} for {:.1f} s\n", uav.name,
                              args->uav, host, port, o.flight_duration_s);

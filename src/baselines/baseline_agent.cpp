@@ -85,10 +85,11 @@ Vec3 BaselineAgent::Neighbour::at(double t_s) const {
          f * (pts[static_cast<std::size_t>(k + 1)] - pts[static_cast<std::size_t>(k)]);
 }
 
-BaselineAgent::BaselineAgent(const BaselineAgentOptions& options,
+BaselineAgent::BaselineAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
                              std::shared_ptr<const mpc::SampledReference> reference,
                              std::shared_ptr<const world::Terrain> terrain)
     : options_(options),
+      limits_(limits),
       reference_(std::move(reference)),
       terrain_(std::move(terrain)),
       path_(*reference_) {

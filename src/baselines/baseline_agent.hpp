@@ -15,6 +15,7 @@
 
 #include "mpc/reference.hpp"
 #include "swarm/uav_agent.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 
@@ -26,11 +27,6 @@ struct BaselineAgentOptions {
   vehicle::VehicleParams vehicle;
   std::vector<swarm::AgentTarget> targets;  ///< this UAV's, in visiting order
   double control_period_s = 0.02;
-  double terrain_clearance_m = 20.0;  ///< h_safe
-  double separation_m = 10.0;         ///< d_safe
-  double threat_margin_m = 10.0;      ///< r_safe
-  double min_altitude_m = 40.0;
-  double max_altitude_m = 500.0;
   double missed_after_s = 30.0;
   double threat_forget_s = 10.0;
   double prediction_step_s = 0.1;  ///< of the broadcast prediction
@@ -57,7 +53,8 @@ class PathGeometry {
 class BaselineAgent : public swarm::UavAgent {
  public:
   /// Throws InputError for invalid options (names the field).
-  BaselineAgent(const BaselineAgentOptions& options,
+  /// `limits`: the mission's h_safe, d_safe, r_safe and band, which the method keeps to.
+  BaselineAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
                 std::shared_ptr<const mpc::SampledReference> reference,
                 std::shared_ptr<const world::Terrain> terrain);
 
@@ -91,6 +88,7 @@ class BaselineAgent : public swarm::UavAgent {
                std::vector<Vec3>& positions) const;
 
   const BaselineAgentOptions& options() const { return options_; }
+  const world::SafetyLimits& limits() const { return limits_; }
   const world::Terrain& terrain() const { return *terrain_; }
   const mpc::SampledReference& reference() const { return *reference_; }
   const PathGeometry& path() const { return path_; }
@@ -106,6 +104,7 @@ class BaselineAgent : public swarm::UavAgent {
   void update_mission(double t_s, const Vec3& position_m);
 
   BaselineAgentOptions options_;
+  world::SafetyLimits limits_;
   std::shared_ptr<const mpc::SampledReference> reference_;
   std::shared_ptr<const world::Terrain> terrain_;
   PathGeometry path_;

@@ -234,7 +234,7 @@ std::vector<Vec3> profile(const planning::ClearanceGrid& grid, const std::vector
     double cone = kInf;
     for (const Pin& p : pins) cone = std::min(cone, p.z_m + slope * std::abs(s[k] - p.s_m));
     const double hard = std::max(
-        grid.options().min_altitude_m + o.altitude_pad_m,
+        grid.limits().altitude.min_m + o.altitude_pad_m,
         grid.terrain().height(samples[k].x(), samples[k].y()) + hard_clearance_m + o.profile_pad_m);
     const int cell = grid.cell_of(samples[k].x(), samples[k].y());
     z[k] = std::max(hard, std::min(grid.required_altitude_m(cell), cone));
@@ -310,10 +310,8 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
   auto stage = Clock::now();
   std::vector<Vec3> starts;
   for (const PlannerUav& u : problem.uavs) starts.push_back(u.start_m);
-  CostEstimateOptions cost_options = options.cost_estimate;
-  cost_options.clearance_m = problem.terrain_clearance_m;
-  const AllocationCosts costs =
-      estimate_allocation_costs(*problem.terrain, starts, problem.targets, cost_options);
+  const AllocationCosts costs = estimate_allocation_costs(*problem.terrain, starts, problem.targets,
+                                                          problem.limits, options.cost_estimate);
   plan.allocation = allocate_targets({starts, problem.targets, costs.start_cost, costs.target_cost},
                                      options.allocation);
   plan.allocation_time_s = seconds_since(stage);
@@ -323,17 +321,14 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
   // 2. Search, smoothing and profile per UAV.
   stage = Clock::now();
   PathSearchOptions search = options.search;
-  search.safe_clearance_m = problem.terrain_clearance_m;
-  search.min_altitude_m = problem.min_altitude_m;
-  search.max_altitude_m = problem.max_altitude_m;
   std::vector<const PlannerUav*> flying;
   try {
     double min_turn_radius_m = 0.0;
     for (const PlannerUav& u : problem.uavs)
       min_turn_radius_m = std::max(min_turn_radius_m, u.vehicle.min_turn_radius_m);
     search.turn_margin_m = std::max(search.turn_margin_m, min_turn_radius_m);
-    const ClearanceGrid grid(*problem.terrain, problem.area, search);
-    const double hard_clearance = problem.terrain_clearance_m + problem.terrain->model_error_m();
+    const ClearanceGrid grid(*problem.terrain, problem.area, problem.limits, search);
+    const double hard_clearance = problem.limits.clearance_floor_m(*problem.terrain);
     for (std::size_t i = 0; i < problem.uavs.size(); ++i) {
       const PlannerUav& u = problem.uavs[i];
       UavPlan uav_plan;
@@ -449,15 +444,12 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
     timed.push_back(std::move(p));
   }
   PlanValidationOptions vo;
-  vo.min_altitude_m = problem.min_altitude_m;
-  vo.max_altitude_m = problem.max_altitude_m;
-  vo.terrain_clearance_m = problem.terrain_clearance_m;
-  vo.separation_m = 0.0;
+  vo.enforce_separation = false;  // left to the flight: these paths are not deconflicted
   vo.terrain_step_m = options.validation_step_m;
   vo.separation_period_s = 1.0;
   PlanValidationReport report;
   try {
-    report = validate_plan(*problem.terrain, timed, vo);
+    report = validate_plan(*problem.terrain, timed, problem.limits, vo);
   } catch (const InputError& e) {
     return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, e.what());
   }

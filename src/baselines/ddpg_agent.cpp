@@ -7,11 +7,12 @@
 
 namespace ridgeline::baselines {
 
-DdpgAgent::DdpgAgent(const BaselineAgentOptions& options,
+DdpgAgent::DdpgAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
                      std::shared_ptr<const learning::DdpgPolicy> policy,
                      std::shared_ptr<const mpc::SampledReference> reference,
                      std::shared_ptr<const world::Terrain> terrain)
-    : BaselineAgent(options, std::move(reference), std::move(terrain)), policy_(std::move(policy)) {
+    : BaselineAgent(options, limits, std::move(reference), std::move(terrain)),
+      policy_(std::move(policy)) {
   if (!policy_) throw InputError("ddpg_model", "a DDPG policy is required for method ddpg");
   held_ = last_command();
 }
@@ -26,21 +27,21 @@ learning::Observation DdpgAgent::observe(double t_s, const vehicle::State& state
   in.target_m =
       next >= 0 ? o.targets[static_cast<std::size_t>(next)].position_m : Vec3(state.head<3>());
   in.terrain = &terrain();
-  in.terrain_clearance_m = o.terrain_clearance_m;
-  in.min_altitude_m = o.min_altitude_m;
-  in.max_altitude_m = o.max_altitude_m;
+  in.terrain_clearance_m = limits().terrain_clearance_m;
+  in.min_altitude_m = limits().altitude.min_m;
+  in.max_altitude_m = limits().altitude.max_m;
   for (const world::Threat& th : threats())
     in.obstacles.push_back({th.centre_at(t_s), th.velocity_m_s, th.radius_m});
   for (const Neighbour& n : neighbours()) {
     // Only a neighbour within kNeighbourRange_m is an obstacle: the policy was trained on
     // obstacles that come and go, not on team-mates that fly beside it for the whole mission.
-    if ((n.at(t_s) - state.head<3>()).norm() - o.separation_m > kNeighbourRange_m) continue;
+    if ((n.at(t_s) - state.head<3>()).norm() - limits().separation_m > kNeighbourRange_m) continue;
     const auto& pts = n.prediction.positions_m;
     const Vec3 velocity = pts.size() >= 2
                               ? Vec3((pts.back() - pts.front()) /
                                      (n.prediction.step_s * static_cast<double>(pts.size() - 1)))
                               : Vec3::Zero();
-    in.obstacles.push_back({n.at(t_s), velocity, o.separation_m});
+    in.obstacles.push_back({n.at(t_s), velocity, limits().separation_m});
   }
   return learning::make_observation(in, o.vehicle);
 }

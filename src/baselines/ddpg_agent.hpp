@@ -29,7 +29,8 @@ class DdpgAgent final : public BaselineAgent {
   static constexpr double kNeighbourRange_m = 40.0;
 
   /// Throws InputError when `policy` is null.
-  DdpgAgent(const BaselineAgentOptions& options, std::shared_ptr<const learning::DdpgPolicy> policy,
+  DdpgAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
+            std::shared_ptr<const learning::DdpgPolicy> policy,
             std::shared_ptr<const mpc::SampledReference> reference,
             std::shared_ptr<const world::Terrain> terrain);
 

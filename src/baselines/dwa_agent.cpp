@@ -17,10 +17,10 @@ double lattice(double lo, double hi, int i, int n) {
 
 }  // namespace
 
-DwaAgent::DwaAgent(const BaselineAgentOptions& options, const DwaOptions& dwa,
-                   std::shared_ptr<const mpc::SampledReference> reference,
+DwaAgent::DwaAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
+                   const DwaOptions& dwa, std::shared_ptr<const mpc::SampledReference> reference,
                    std::shared_ptr<const world::Terrain> terrain)
-    : BaselineAgent(options, std::move(reference), std::move(terrain)), dwa_(dwa) {
+    : BaselineAgent(options, limits, std::move(reference), std::move(terrain)), dwa_(dwa) {
   if (!(dwa.dwa_period_s > 0.0 && dwa.horizon_s > 0.0 && dwa.rollout_step_s > 0.0))
     throw InputError("dwa.horizon_s", "period, horizon and step must be positive");
   if (dwa.speed_samples < 1 || dwa.turn_samples < 2 || dwa.climb_samples < 1)
@@ -44,8 +44,8 @@ vehicle::Input DwaAgent::compute(double t_s, const vehicle::State& state, const 
     const Vec3 goal = path().at(progress_m() + v_des * dwa_.horizon_s);
     const double v_now = std::max(state[vehicle::kV], vp.min_speed_m_s());
     const double turn_max = vp.max_turn_rate_rad_s(v_now);
-    const double threat_keep = o.threat_margin_m + dwa_.threat_clearance_m;
-    const double neighbour_keep = o.separation_m + dwa_.neighbour_clearance_m;
+    const double threat_keep = limits().threat_margin_m + dwa_.threat_clearance_m;
+    const double neighbour_keep = limits().separation_m + dwa_.neighbour_clearance_m;
 
     double best_cost = kInf, best_margin = -kInf;
     vehicle::Input best = last_command(), safest = last_command();
@@ -65,13 +65,14 @@ vehicle::Input DwaAgent::compute(double t_s, const vehicle::State& state, const 
           for (int k = 0; k < steps; ++k) {
             const Vec3& q = rollout_positions[static_cast<std::size_t>(k)];
             const double tk = t_s + (k + 1) * dwa_.rollout_step_s;
-            margin = std::min(margin, clearance_m(q) - o.terrain_clearance_m);
-            margin = std::min({margin, q.z() - o.min_altitude_m, o.max_altitude_m - q.z()});
+            margin = std::min(margin, clearance_m(q) - limits().terrain_clearance_m);
+            margin = std::min(
+                {margin, q.z() - limits().altitude.min_m, limits().altitude.max_m - q.z()});
             for (const world::Threat& th : threats()) {
               const double d = (q - th.centre_at(tk)).norm() - th.radius_m;
               margin = std::min(margin, d - threat_keep);
-              obstacle +=
-                  std::max(0.0, dwa_.influence_m - (d - o.threat_margin_m)) / dwa_.influence_m;
+              obstacle += std::max(0.0, dwa_.influence_m - (d - limits().threat_margin_m)) /
+                          dwa_.influence_m;
             }
             for (const Neighbour& n : neighbours()) {
               const double d = (q - n.at(tk)).norm();

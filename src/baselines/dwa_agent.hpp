@@ -41,8 +41,8 @@ struct DwaOptions {
 
 class DwaAgent final : public BaselineAgent {
  public:
-  DwaAgent(const BaselineAgentOptions& options, const DwaOptions& dwa,
-           std::shared_ptr<const mpc::SampledReference> reference,
+  DwaAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
+           const DwaOptions& dwa, std::shared_ptr<const mpc::SampledReference> reference,
            std::shared_ptr<const world::Terrain> terrain);
 
  protected:

@@ -12,10 +12,11 @@ double wrap_angle(double a) { return std::remainder(a, 2.0 * kPi); }
 
 }  // namespace
 
-PursuitAgent::PursuitAgent(const BaselineAgentOptions& options, const PursuitOptions& pursuit,
+PursuitAgent::PursuitAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
+                           const PursuitOptions& pursuit,
                            std::shared_ptr<const mpc::SampledReference> reference,
                            std::shared_ptr<const world::Terrain> terrain)
-    : BaselineAgent(options, std::move(reference), std::move(terrain)), pursuit_(pursuit) {
+    : BaselineAgent(options, limits, std::move(reference), std::move(terrain)), pursuit_(pursuit) {
   if (!(pursuit.min_lookahead_m > 0.0 && pursuit.lookahead_time_s > 0.0))
     throw InputError("pursuit.min_lookahead_m", "lookahead distance and time must be positive");
 }
@@ -34,7 +35,7 @@ vehicle::Input PursuitAgent::compute(double t_s, const vehicle::State& state, co
   Vec3 carrot = path().at(progress_m() + lookahead);
   for (const world::Threat& th : threats()) {
     const Vec3 c = th.centre_at(t_s);
-    const double keep = th.radius_m + o.threat_margin_m + pursuit_.threat_clearance_m;
+    const double keep = th.radius_m + limits().threat_margin_m + pursuit_.threat_clearance_m;
     const Vec2 a = p.head<2>(), b = carrot.head<2>(), cc = c.head<2>();
     const Vec2 ab = b - a;
     const double f =
@@ -82,9 +83,9 @@ vehicle::Input PursuitAgent::compute(double t_s, const vehicle::State& state, co
       p + pursuit_.lookahead_time_s * v *
               Vec3(std::cos(state[vehicle::kPsi]), std::sin(state[vehicle::kPsi]), 0.0);
   if (std::min(clearance_m(p), clearance_m(ahead)) <
-      o.terrain_clearance_m + pursuit_.terrain_guard_m)
+      limits().terrain_clearance_m + pursuit_.terrain_guard_m)
     climb = vp.max_climb_rate_m_s;
-  if (p.z() > o.max_altitude_m - 10.0) climb = std::min(climb, 0.0);
+  if (p.z() > limits().altitude.max_m - 10.0) climb = std::min(climb, 0.0);
 
   // Saturation: w_max, and 90 % of the pitch limit at the current speed (the climb lag).
   const double climb_max = std::min(

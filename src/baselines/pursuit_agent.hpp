@@ -36,7 +36,8 @@ struct PursuitOptions {
 
 class PursuitAgent final : public BaselineAgent {
  public:
-  PursuitAgent(const BaselineAgentOptions& options, const PursuitOptions& pursuit,
+  PursuitAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
+               const PursuitOptions& pursuit,
                std::shared_ptr<const mpc::SampledReference> reference,
                std::shared_ptr<const world::Terrain> terrain);
 

@@ -342,8 +342,8 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
 
   if (auto alt = top.optional("altitude")) {
     YamlMap m = alt->as_map();
-    s.altitude.min_m = m.get_double("min_m", s.altitude.min_m);
-    s.altitude.max_m = m.get_double("max_m", s.altitude.max_m);
+    s.safety.altitude.min_m = m.get_double("min_m", s.safety.altitude.min_m);
+    s.safety.altitude.max_m = m.get_double("max_m", s.safety.altitude.max_m);
     const std::string reference = m.get_string("reference", "datum");
     if (reference == "home") {
       if (!s.origin) {
@@ -351,9 +351,9 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
                          "'home' means above the origin's altitude, but "
                          "the scenario has no 'origin'");
       }
-      s.altitude.min_m += s.origin->alt_amsl_m;
-      s.altitude.max_m += s.origin->alt_amsl_m;
-      s.altitude.stated_reference = sim::AltitudeLimits::Reference::kHome;
+      s.safety.altitude.min_m += s.origin->alt_amsl_m;
+      s.safety.altitude.max_m += s.origin->alt_amsl_m;
+      s.altitude_stated_reference = sim::AltitudeReference::kHome;
     } else if (reference != "datum") {
       throw InputError("altitude.reference",
                        fmt::format("must be 'datum' (the frame's z: above mean sea level with "
@@ -362,6 +362,7 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
     }
     m.finish();
   }
+  if (s.origin) s.safety.altitude.datum = world::AltitudeDatum::kMeanSeaLevel;
   if (auto safety = top.optional("safety")) {
     YamlMap m = safety->as_map();
     s.safety.terrain_clearance_m = m.get_double("terrain_clearance_m", s.safety.terrain_clearance_m);

@@ -85,7 +85,7 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
               {"control_horizon_steps", s.mpc.control_horizon_steps}};
   j["safety"] = {{"terrain_clearance_m", s.safety.terrain_clearance_m},
                  {"separation_m", s.safety.separation_m},
-                 {"altitude_m", {s.altitude.min_m, s.altitude.max_m}}};
+                 {"altitude_m", {s.safety.altitude.min_m, s.safety.altitude.max_m}}};
   // Where z is measured from (DESIGN §8): the terrain datum, or mean sea level with an origin.
   if (s.origin) {
     j["frame"] = {
@@ -95,8 +95,7 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
           {"alt_amsl_m", s.origin->alt_amsl_m}}},
         {"z", "metres above mean sea level"},
         {"altitude_stated_above",
-         s.altitude.stated_reference == sim::AltitudeLimits::Reference::kHome ? "home"
-                                                                              : "mean sea level"}};
+         s.altitude_stated_reference == sim::AltitudeReference::kHome ? "home" : "mean sea level"}};
   } else {
     j["frame"] = {{"origin", nullptr}, {"z", "metres in the terrain datum"}};
   }

@@ -20,13 +20,13 @@ std::string_view to_string(PilotPhase phase) {
   return "invalid phase";
 }
 
-OffboardPilot::OffboardPilot(const OffboardPilotOptions& options,
+OffboardPilot::OffboardPilot(const OffboardPilotOptions& options, const world::SafetyLimits& limits,
                              std::shared_ptr<const mpc::ReferenceTrajectory> reference,
                              std::shared_ptr<const world::Terrain> terrain)
     : o_(options),
       reference_(std::move(reference)),
       terrain_(std::move(terrain)),
-      tracker_(options.tracker) {
+      tracker_(options.tracker, limits) {
   if (!reference_) throw InputError("reference", "is missing");
   if (!(o_.flight_duration_s > 0.0))
     throw InputError("flight_duration_s", "must be positive");

@@ -75,7 +75,7 @@ struct FlightSummary {
 class OffboardPilot {
  public:
   /// Throws ridgeline::InputError for invalid tracker options or a missing reference.
-  OffboardPilot(const OffboardPilotOptions& options,
+  OffboardPilot(const OffboardPilotOptions& options, const world::SafetyLimits& limits,
                 std::shared_ptr<const mpc::ReferenceTrajectory> reference,
                 std::shared_ptr<const world::Terrain> terrain);
 

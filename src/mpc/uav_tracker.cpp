@@ -92,9 +92,6 @@ void validate(const UavTrackerOptions& o) {
   require(positive(o.max_speed_cmd_rate_m_s2) && positive(o.max_turn_cmd_rate_rad_s2) &&
               positive(o.max_climb_cmd_rate_m_s2),
           "max_*_cmd_rate", "rate limits must be finite and > 0");
-  require(non_negative(o.threat_margin_m), "threat_margin_m", "must be finite and >= 0");
-  require(non_negative(o.separation_m), "separation_m", "must be finite and >= 0");
-  require(non_negative(o.terrain_clearance_m), "terrain_clearance_m", "must be finite and >= 0");
   require(non_negative(o.wind_error_bound_m_s), "wind_error_bound_m_s", "must be finite and >= 0");
   require(non_negative(o.max_robust_margin_m), "max_robust_margin_m", "must be finite and >= 0");
   require(non_negative(o.activation_distance_m), "activation_distance_m",
@@ -127,11 +124,13 @@ NeighbourPrediction UavTrackerResult::as_broadcast(int uav_id) const {
   return msg;
 }
 
-UavTracker::UavTracker(const UavTrackerOptions& options)
+UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimits& limits)
     : options_(options),
+      limits_(limits),
       mpc_(tracker_dims(options), tracker_mpc_options(options)),
       np_(options.prediction_horizon),
       nc_(options.control_horizon) {
+  world::validate(limits_);
   IncrementalMpcData& d = mpc_.data();
   d.C.setZero();
   d.C.leftCols(3).setIdentity();  // y = p (DESIGN §3)
@@ -337,7 +336,7 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       const double tj = t_s + (j + 1) * dt;
       if (!(threat.appear_s <= tj && tj <= threat.vanish_s)) continue;
       const Vec3 c = threat.centre_m + threat.velocity_m_s * (tj - threat.appear_s);  // eq. 13
-      const double required = threat.radius_m + options_.threat_margin_m + margin(j);
+      const double required = threat.radius_m + limits_.threat_margin_m + margin(j);
       double dist = 0.0;
       const Vec3 n = normal(nominal_positions_.col(j), c, dist);
       if (dist - required > activation) continue;
@@ -358,8 +357,8 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       const Vec3 q = nb.position_at(t_s + (j + 1) * dt);
       double dist = 0.0;
       const Vec3 n = normal(nominal_positions_.col(j), q, dist);
-      if (dist - options_.separation_m > activation) continue;
-      add(j, n, n.dot(q) + options_.separation_m, SoftConstraintKind::kNeighbour);
+      if (dist - limits_.separation_m > activation) continue;
+      add(j, n, n.dot(q) + limits_.separation_m, SoftConstraintKind::kNeighbour);
     }
   }
 
@@ -369,7 +368,7 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       const Vec3 pbar = nominal_positions_.col(j);
       const double h = env.terrain->height(pbar.x(), pbar.y());
       const Vec2 g = env.terrain->gradient(pbar.x(), pbar.y());
-      const double required = options_.terrain_clearance_m + margin(j) + model_error;
+      const double required = limits_.terrain_clearance_m + margin(j) + model_error;
       if (pbar.z() - h - required > activation) continue;
       // z − ∇H·(p − p̄)_xy ≥ H(p̄) + h_safe + m_j + e_H
       add(j, Vec3(-g.x(), -g.y(), 1.0), h + required - g.dot(pbar.head<2>()),

@@ -59,6 +59,7 @@
 #include "mpc/incremental_mpc.hpp"
 #include "mpc/reference.hpp"
 #include "vehicle/vehicle_model.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 
@@ -106,9 +107,6 @@ struct UavTrackerOptions {
   double max_turn_cmd_rate_rad_s2 = 1.5;  ///< |ω̇_c|
   double max_climb_cmd_rate_m_s2 = 4.0;   ///< |ẇ_c|
 
-  double threat_margin_m = 5.0;       ///< r_safe
-  double separation_m = 10.0;         ///< d_safe
-  double terrain_clearance_m = 20.0;  ///< h_safe
   double wind_error_bound_m_s = 0.5;  ///< ē_W, bound on the wind measurement's error
   double max_robust_margin_m = 10.0;  ///< m_max
   double activation_distance_m = 60.0;
@@ -174,8 +172,9 @@ struct UavTrackerResult {
 
 class UavTracker {
  public:
-  /// Throws ridgeline::InputError for invalid options.
-  explicit UavTracker(const UavTrackerOptions& options);
+  /// `limits`: r_safe, d_safe and h_safe of the soft rows (the mission's). Throws
+  /// ridgeline::InputError for invalid options or limits.
+  UavTracker(const UavTrackerOptions& options, const world::SafetyLimits& limits);
 
   /// One control step at mission time t_s with the measured state and wind.
   const UavTrackerResult& step(double t_s, const vehicle::State& state,
@@ -187,6 +186,7 @@ class UavTracker {
   void reset(const vehicle::Input& initial_command);
 
   const UavTrackerOptions& options() const { return options_; }
+  const world::SafetyLimits& limits() const { return limits_; }
   const IncrementalMpc& mpc() const { return mpc_; }
   const UavTrackerResult& last_result() const { return result_; }
 
@@ -206,6 +206,7 @@ class UavTracker {
   void push_history(const HistoryEntry& entry);
 
   UavTrackerOptions options_;
+  world::SafetyLimits limits_;
   IncrementalMpc mpc_;
   UavTrackerResult result_;
   int np_, nc_;

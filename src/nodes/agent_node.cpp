@@ -29,7 +29,7 @@ std::unique_ptr<swarm::Agent> make_agent(const sim::Scenario& scenario, int id,
   up.name = scenario.uavs[static_cast<std::size_t>(id)].name;
   up.targets = plan.target_ids;
   auto reference = std::make_shared<const mpc::SampledReference>(plan.times_s, plan.points);
-  return std::make_unique<swarm::Agent>(sim::make_agent_options(scenario, id, up),
+  return std::make_unique<swarm::Agent>(sim::make_agent_options(scenario, id, up), scenario.safety,
                                         std::move(reference), std::move(terrain));
 }
 

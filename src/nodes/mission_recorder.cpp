@@ -20,7 +20,7 @@ MissionRecorder::MissionRecorder(const sim::Scenario& scenario,
     : scenario_(scenario),
       terrain_(std::move(terrain)),
       record_(record_trajectories),
-      safety_(scenario, *terrain_),
+      safety_(scenario.safety, static_cast<int>(scenario.uavs.size()), *terrain_),
       min_turn_radius_(kInf) {
   const int n = world.num_uavs();
   tally_.resize(static_cast<std::size_t>(n));
@@ -48,7 +48,7 @@ void MissionRecorder::path_and_constraints(int i, double t, const sim::TruthWorl
   }
   if (!world.holding(i)) {
     const vehicle::VehicleParams& vp = scenario_.uavs[static_cast<std::size_t>(i)].vehicle;
-    if (p.z() < scenario_.altitude.min_m || p.z() > scenario_.altitude.max_m)
+    if (p.z() < scenario_.safety.altitude.min_m || p.z() > scenario_.safety.altitude.max_m)
       ++m.constraint_violations["altitude"];
     if (std::abs(vehicle::pitch_angle_rad(s)) > vp.max_pitch_rad + 1e-3)
       ++m.constraint_violations["pitch"];

@@ -27,9 +27,11 @@ std::string check_problem(const GlobalPlanningProblem& p) {
   if (!p.terrain) return "terrain: missing";
   if (p.uavs.empty()) return "uavs: at least one UAV is needed";
   if (p.targets.empty()) return "targets: at least one target is needed";
-  if (!(p.min_altitude_m < p.max_altitude_m)) return "altitude: min must be below max";
-  if (!(p.terrain_clearance_m >= 0.0)) return "terrain_clearance_m: must not be negative";
-  if (!(p.separation_m > 0.0)) return "separation_m: must be positive";
+  try {
+    world::validate(p.limits);
+  } catch (const InputError& e) {
+    return e.what();
+  }
   return "";
 }
 
@@ -48,7 +50,7 @@ std::string validate_references(const GlobalPlanningProblem& problem,
                                  const GlobalPlannerOptions& options, const GlobalPlan& plan,
                                  PlanValidationSummary& summary) {
   const world::Terrain& terrain = *problem.terrain;
-  const double floor_m = problem.terrain_clearance_m + terrain.model_error_m();
+  const double floor_m = problem.limits.clearance_floor_m(terrain);
   summary = PlanValidationSummary{};
   summary.min_terrain_clearance_m = std::numeric_limits<double>::infinity();
   summary.min_altitude_m = std::numeric_limits<double>::infinity();
@@ -80,11 +82,13 @@ std::string validate_references(const GlobalPlanningProblem& problem,
                              "{:.2f} m above the terrain, below the required {:.2f} m",
                              uav.name, times[k], p.x(), p.y(), p.z(), clearance, floor_m));
         }
-        if (p.z() < problem.min_altitude_m - 1e-6 || p.z() > problem.max_altitude_m + 1e-6) {
-          report(fmt::format("altitude band: {} at t = {:.2f} s flies at {:.1f} m, outside "
-                             "[{}, {}] m",
-                             uav.name, times[k], p.z(), problem.min_altitude_m,
-                             problem.max_altitude_m));
+        if (p.z() < problem.limits.altitude.min_m - 1e-6 ||
+            p.z() > problem.limits.altitude.max_m + 1e-6) {
+          report(
+              fmt::format("altitude band: {} at t = {:.2f} s flies at {:.1f} m, outside "
+                          "[{}, {}] m",
+                          uav.name, times[k], p.z(), problem.limits.altitude.min_m,
+                          problem.limits.altitude.max_m));
         }
       }
       const double pitch = std::atan2(std::abs(samples[k].climb_rate_m_s), samples[k].speed_m_s);
@@ -107,11 +111,12 @@ std::string validate_references(const GlobalPlanningProblem& problem,
       for (std::size_t j = i + 1; j < plan.uavs.size(); ++j) {
         const double d = (positions[i] - positions[j]).norm();
         summary.min_separation_m = std::min(summary.min_separation_m, d);
-        if (d < problem.separation_m - 1e-6) {
-          report(fmt::format("separation: {} and {} are {:.2f} m apart at t = {:.2f} s near "
-                             "({:.1f}, {:.1f}, {:.1f}), below d_safe {} m",
-                             plan.uavs[i].name, plan.uavs[j].name, d, t, positions[i].x(),
-                             positions[i].y(), positions[i].z(), problem.separation_m));
+        if (d < problem.limits.separation_m - 1e-6) {
+          report(
+              fmt::format("separation: {} and {} are {:.2f} m apart at t = {:.2f} s near "
+                          "({:.1f}, {:.1f}, {:.1f}), below d_safe {} m",
+                          plan.uavs[i].name, plan.uavs[j].name, d, t, positions[i].x(),
+                          positions[i].y(), positions[i].z(), problem.limits.separation_m));
         }
       }
     }
@@ -178,10 +183,8 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   auto stage = Clock::now();
   std::vector<Vec3> starts;
   for (const PlannerUav& u : problem.uavs) starts.push_back(u.start_m);
-  CostEstimateOptions cost_options = options.cost_estimate;
-  cost_options.clearance_m = problem.terrain_clearance_m;
-  const AllocationCosts costs =
-      estimate_allocation_costs(*problem.terrain, starts, problem.targets, cost_options);
+  const AllocationCosts costs = estimate_allocation_costs(*problem.terrain, starts, problem.targets,
+                                                          problem.limits, options.cost_estimate);
   AllocationProblem allocation_problem{starts, problem.targets, costs.start_cost, costs.target_cost};
   plan.allocation = allocate_targets(allocation_problem, options.allocation);
   plan.allocation_time_s = seconds_since(stage);
@@ -191,9 +194,6 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   // 2. Initial paths through each UAV's targets.
   stage = Clock::now();
   PathSearchOptions search = options.search;
-  search.safe_clearance_m = problem.terrain_clearance_m;
-  search.min_altitude_m = problem.min_altitude_m;
-  search.max_altitude_m = problem.max_altitude_m;
   double max_pitch_rad = kPi / 2;
   double min_turn_radius_m = 0.0;
   for (const PlannerUav& u : problem.uavs) {
@@ -205,7 +205,7 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   std::vector<const PlannerUav*> flying;          // per plan.uavs entry
   std::vector<std::vector<int>> target_indices;  // per plan.uavs entry: targets on its path
   try {
-    const ClearanceGrid grid(*problem.terrain, problem.area, search);
+    const ClearanceGrid grid(*problem.terrain, problem.area, problem.limits, search);
     for (std::size_t i = 0; i < problem.uavs.size(); ++i) {
       const PlannerUav& u = problem.uavs[i];
       UavPlan uav_plan;
@@ -238,14 +238,11 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
     stage = Clock::now();
     TrajectoryProblem trajectory_problem;
     trajectory_problem.terrain = problem.terrain.get();
+    trajectory_problem.limits = problem.limits;
     for (std::size_t i = 0; i < plan.uavs.size(); ++i)
       trajectory_problem.uavs.push_back(
           {plan.uavs[i].name, plan.uavs[i].waypoints_m, target_indices[i], flying[i]->vehicle});
     TrajectoryOptimizerOptions optimizer = options.optimizer;
-    optimizer.min_altitude_m = problem.min_altitude_m;
-    optimizer.max_altitude_m = problem.max_altitude_m;
-    optimizer.terrain_clearance_m = problem.terrain_clearance_m;
-    optimizer.separation_m = problem.separation_m;
     optimizer.validation_terrain_step_m = options.validation_step_m;
     optimizer.validation_separation_period_s = options.timing.control_period_s;
     plan.optimization = optimize_trajectories(trajectory_problem, optimizer);

@@ -50,10 +50,7 @@ struct PlannerUav {
 struct GlobalPlanningProblem {
   std::shared_ptr<const world::Terrain> terrain;
   SearchArea area;
-  double min_altitude_m = 40.0;       ///< H_min, eq. 14
-  double max_altitude_m = 500.0;      ///< H_max
-  double terrain_clearance_m = 20.0;  ///< h_safe, eq. 19–20
-  double separation_m = 10.0;         ///< d_safe, eq. 21
+  world::SafetyLimits limits;  ///< the band (eq. 14), h_safe (eq. 19–20), d_safe (eq. 21)
   std::vector<PlannerUav> uavs;
   std::vector<AllocationTarget> targets;
 };
@@ -65,13 +62,13 @@ enum class OptimizerFallback {
 };
 
 struct GlobalPlannerOptions {
-  PathSearchOptions search;  ///< altitude band, clearance and pitch are taken from the problem
+  PathSearchOptions search;  ///< θ_max and the turn margin are taken from the team's vehicles
   AllocationOptions allocation;
   CostEstimateOptions cost_estimate;
   bool optimize = true;  ///< stage 3 (joint optimization, eq. 14–24) on or off
-  /// Stage 3. The altitude band, h_safe and d_safe are taken from the problem, the validation
-  /// steps from validation_step_m and timing.control_period_s; the rest (grid, weights w1..w4,
-  /// λ1, λ2, penalties, solver limits) as given.
+  /// Stage 3. The validation steps are taken from validation_step_m and
+  /// timing.control_period_s; the rest (grid, weights w1..w4, λ1, λ2, penalties, solver limits)
+  /// as given. The limits are the problem's.
   TrajectoryOptimizerOptions optimizer;
   OptimizerFallback on_optimizer_failure = OptimizerFallback::kInitialPaths;
   TimeParametrizationOptions timing;

@@ -123,7 +123,7 @@ double min_guess_separation(const std::vector<GuessUav>& uavs, double separation
 namespace {
 
 std::vector<double> lift_against(GuessUav& u, const std::vector<GuessUav>& uavs,
-                                 const std::vector<int>& done,
+                                 const std::vector<int>& done, double max_altitude_m,
                                  const GuessDeconflictionOptions& options) {
   const double D = options.separation_m;
   const std::vector<Vec3> base = u.guess_m;
@@ -140,7 +140,7 @@ std::vector<double> lift_against(GuessUav& u, const std::vector<GuessUav>& uavs,
   }
   std::vector<double> cap(static_cast<std::size_t>(n) + 1);
   for (int k = 0; k <= n; ++k)
-    cap[k] = u.fixed[k] != 0 ? 0.0 : std::max(0.0, options.max_altitude_m - base[k].z());
+    cap[k] = u.fixed[k] != 0 ? 0.0 : std::max(0.0, max_altitude_m - base[k].z());
   for (int k = 1; k <= n; ++k) cap[k] = std::min(cap[k], cap[k - 1] + slope[k - 1]);
   for (int k = n - 1; k >= 0; --k) cap[k] = std::min(cap[k], cap[k + 1] + slope[k]);
 
@@ -197,6 +197,7 @@ std::vector<double> lift_against(GuessUav& u, const std::vector<GuessUav>& uavs,
 }  // namespace
 
 GuessDeconflictionSummary deconflict_guesses(std::vector<GuessUav>& uavs,
+                                             const world::AltitudeBand& band,
                                              const GuessDeconflictionOptions& options) {
   if (!(options.separation_m > 0.0) || !std::isfinite(options.separation_m))
     throw InputError("guess_deconfliction.separation_m",
@@ -243,7 +244,7 @@ GuessDeconflictionSummary deconflict_guesses(std::vector<GuessUav>& uavs,
     // Lift; while conflicts remain, try delays of 1 … max_delay_steps on the leg of the first
     // one (each lifted again), and keep the best.
     GuessUav best = u;
-    std::vector<double> best_lift = lift_against(best, uavs, done, options);
+    std::vector<double> best_lift = lift_against(best, uavs, done, band.max_m, options);
     int first = -1;
     int best_conflicts = conflicts_of(best.guess_m, uavs, done, D, &first);
     int best_delay = 0;
@@ -259,7 +260,7 @@ GuessDeconflictionSummary deconflict_guesses(std::vector<GuessUav>& uavs,
         GuessUav candidate;
         if (!delayed(from, L, m, f, candidate)) break;
         const GuessUav unlifted = candidate;
-        std::vector<double> lift = lift_against(candidate, uavs, done, options);
+        std::vector<double> lift = lift_against(candidate, uavs, done, band.max_m, options);
         int candidate_first = -1;
         const int c = conflicts_of(candidate.guess_m, uavs, done, D, &candidate_first);
         if (c < best_conflicts) {

@@ -41,12 +41,12 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "world/safety_limits.hpp"
 
 namespace ridgeline::planning {
 
 struct GuessDeconflictionOptions {
   double separation_m = 20.0;     ///< D > 0: wanted separation of the guesses at equal times
-  double max_altitude_m = 500.0;  ///< H_max: no lift above it
   double slope_fraction = 0.9;    ///< (0, 1]: share of the remaining climb budget a lift uses
   int max_passes = 30;            ///< ≥ 1 per UAV
   int max_delay_steps = 4;        ///< ≥ 0: longest delay tried on a leg, in grid steps
@@ -85,7 +85,9 @@ double min_guess_separation(const std::vector<GuessUav>& uavs, double separation
 
 /// Lifts and delays the guesses (file comment); a delayed guess has more points (and its fixed
 /// flags move with them). Throws InputError on bad options or inconsistent sizes.
+/// No lift goes above `band.max_m` (H_max).
 GuessDeconflictionSummary deconflict_guesses(std::vector<GuessUav>& uavs,
+                                             const world::AltitudeBand& band,
                                              const GuessDeconflictionOptions& options = {});
 
 }  // namespace ridgeline::planning

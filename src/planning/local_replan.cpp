@@ -111,7 +111,6 @@ std::string check_inputs(const LocalReplanProblem& p, const LocalReplanOptions& 
   auto nonneg = [](double x) { return x >= 0.0 && std::isfinite(x); };
   if (!positive(o.window_s)) return bad("options.window_s", "must be > 0");
   if (!positive(o.time_step_s)) return bad("options.time_step_s", "must be > 0");
-  if (!nonneg(o.threat_margin_m)) return bad("options.threat_margin_m", "must be >= 0");
   if (!(o.threat_time_margin_s >= 0.0)) return bad("options.threat_time_margin_s", "must be >= 0");
   if (!nonneg(o.obstacle_margin_m)) return bad("options.obstacle_margin_m", "must be >= 0");
   if (o.obstacle_samples_per_step < 0)
@@ -120,11 +119,11 @@ std::string check_inputs(const LocalReplanProblem& p, const LocalReplanOptions& 
   if (!nonneg(o.separation_prefilter_m))
     return bad("options.separation_prefilter_m", "must be >= 0");
   if (!positive(o.lateral_rate_m_s)) return bad("options.lateral_rate_m_s", "must be > 0");
-  if (!std::isfinite(o.min_altitude_m) || !std::isfinite(o.max_altitude_m) ||
-      !(o.min_altitude_m < o.max_altitude_m))
-    return bad("options.min_altitude_m", "must be finite and below max_altitude_m");
-  if (!nonneg(o.terrain_clearance_m)) return bad("options.terrain_clearance_m", "must be >= 0");
-  if (!positive(o.separation_m)) return bad("options.separation_m", "must be > 0");
+  try {
+    world::validate(p.limits);
+  } catch (const InputError& e) {
+    return fmt::format("problem.limits: {}", e.what());
+  }
   if (o.max_refinements < 0) return bad("options.max_refinements", "must be >= 0");
   if (!positive(o.time_budget_s)) return bad("options.time_budget_s", "must be > 0");
   if (!(o.validation_terrain_step_m > 0.0 && o.validation_terrain_step_m <= 5.0))
@@ -200,7 +199,8 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   const mpc::ReferenceTrajectory& reference = *problem.reference;
   const vehicle::VehicleParams& vehicle = problem.vehicle;
   const double delta = options.threat_time_margin_s;
-  const double r_safe = options.threat_margin_m;
+  const world::SafetyLimits& limits = problem.limits;
+  const double r_safe = limits.threat_margin_m;
   const double period = options.timing.control_period_s;
 
   // Window and grid (file comment).
@@ -279,7 +279,7 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
     along = Vec2(std::cos(psi), std::sin(psi));
   }
   const Vec2 side = Vec2(-along.y(), along.x()).normalized();
-  const double floor_m = options.terrain_clearance_m + terrain.model_error_m();
+  const double floor_m = limits.clearance_floor_m(terrain);
   auto shifted_guess = [&](double sign) {
     std::vector<double> offset(last + 1, 0.0);
     for (const world::Threat& th : problem.threats) {
@@ -309,7 +309,7 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
       Vec3& p = guess[j];
       p.head<2>() += spread[j] * side;
       p.z() = std::max(p.z(), terrain.height(p.x(), p.y()) + floor_m + 2.0);
-      p.z() = std::clamp(p.z(), options.min_altitude_m, options.max_altitude_m);
+      p.z() = std::clamp(p.z(), limits.altitude.min_m, limits.altitude.max_m);
     }
     double total = 0.0;
     for (double o : spread) total += std::abs(o);
@@ -322,10 +322,6 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   if (cost_right < cost_left) std::swap(starts[0], starts[1]);
 
   TrajectoryOptimizerOptions opt = options.optimizer;
-  opt.min_altitude_m = options.min_altitude_m;
-  opt.max_altitude_m = options.max_altitude_m;
-  opt.terrain_clearance_m = options.terrain_clearance_m;
-  opt.separation_m = options.separation_m;
   opt.time_step_s = dt;
   // A corner of angle φ rounded at radius k_s·R_min needs k_s·R_min·tan(φ/2) of each
   // neighbouring segment, of which the timing may use half: on a short grid the turn penalty
@@ -339,6 +335,7 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   NlpSetup setup;
   setup.terrain = &terrain;
   setup.time_step_s = dt;
+  setup.limits = limits;
   setup.options = opt;
   setup.terrain_samples.emplace_back(last, std::max(0, opt.terrain_samples_per_segment));
   setup.clearance_extra_m.emplace_back(last + 1, 0.0);
@@ -376,7 +373,7 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
               if ((q - c).norm() > options.separation_prefilter_m) continue;
               rows.push_back(
                   {0, j, tau, c, c,
-                   options.separation_m + options.obstacle_margin_m + sr.separation_extra_m, false,
+                   limits.separation_m + options.obstacle_margin_m + sr.separation_extra_m, false,
                    static_cast<int>(i)});
             }
           }
@@ -387,10 +384,6 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
   };
 
   PlanValidationOptions terrain_check;
-  terrain_check.min_altitude_m = options.min_altitude_m;
-  terrain_check.max_altitude_m = options.max_altitude_m;
-  terrain_check.terrain_clearance_m = options.terrain_clearance_m;
-  terrain_check.separation_m = options.separation_m;
   terrain_check.terrain_step_m = options.validation_terrain_step_m;
   terrain_check.separation_period_s = period;
 
@@ -505,7 +498,7 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
     if (findings.empty()) {
       TimedPath own{"replan", {}, tp.sample_times_s};
       for (const mpc::ReferencePoint& rp : tp.samples) own.waypoints_m.push_back(rp.position_m);
-      terrain_report = validate_plan(terrain, {own}, terrain_check);
+      terrain_report = validate_plan(terrain, {own}, limits, terrain_check);
       for (const PlanViolation& v : terrain_report.violations)
         findings.push_back({v.kind == ViolationKind::kTerrainClearance ? Finding::Kind::kTerrain
                                                                        : Finding::Kind::kAltitude,
@@ -526,12 +519,12 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
         for (std::size_t i = 0; i < problem.others.size(); ++i) {
           const double d = (p - path_at(problem.others[i], t)).norm();
           min_separation = std::min(min_separation, d);
-          if (d < options.separation_m - 1e-6)
+          if (d < limits.separation_m - 1e-6)
             findings.push_back(
-                {Finding::Kind::kSeparation, t, options.separation_m - d,
+                {Finding::Kind::kSeparation, t, limits.separation_m - d,
                  fmt::format("separation (eq. 21) from '{}': {:.2f} m < d_safe = {:.2f} m at "
                              "t = {:.2f} s, ({:.1f}, {:.1f}, {:.1f})",
-                             problem.others[i].name, d, options.separation_m, t, p.x(), p.y(),
+                             problem.others[i].name, d, limits.separation_m, t, p.x(), p.y(),
                              p.z())});
         }
       }

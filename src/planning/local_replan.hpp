@@ -52,6 +52,7 @@
 #include "planning/time_parametrization.hpp"
 #include "planning/trajectory_optimizer.hpp"
 #include "vehicle/vehicle_model.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 
@@ -67,12 +68,12 @@ struct LocalReplanProblem {
   /// The other UAVs' references (piecewise linear in time, holding before and after their
   /// span, as in plan_validation.hpp). May be empty.
   std::vector<TimedPath> others;
+  world::SafetyLimits limits;  ///< r_safe, h_safe, d_safe and the band (the mission's)
 };
 
 struct LocalReplanOptions {
   double window_s = 30.0;         ///< > 0: the re-planned stretch of r
   double time_step_s = 1.0;       ///< > 0: grid Δt (the window is divided evenly, ≤ this)
-  double threat_margin_m = 10.0;  ///< r_safe ≥ 0: kept beyond R
   /// δ ≥ 0 (file comment): the sphere is avoided over [t − δ, t + δ]; ∞ = swept over the window.
   double threat_time_margin_s = std::numeric_limits<double>::infinity();
   double obstacle_margin_m = 1.0;         ///< m ≥ 0 added to the threat and separation rows
@@ -84,14 +85,9 @@ struct LocalReplanOptions {
   /// rescaling to end exactly at t_1 (a few percent) stays inside the vehicle's band.
   double speed_headroom_m_s = 0.5;
   double climb_headroom_m_s = 0.15;  ///< ≥ 0, below w_max: the same for the climb limit
-  // Hard limits (the global plan's).
-  double min_altitude_m = 40.0;       ///< H_min, eq. 14
-  double max_altitude_m = 500.0;      ///< H_max
-  double terrain_clearance_m = 20.0;  ///< h_safe, eq. 19–20 (plus the terrain's model error)
-  double separation_m = 10.0;         ///< d_safe, eq. 21
   /// Weights, penalties, current model, Ipopt tolerances and iteration limit, Hessian mode.
-  /// Its grid, altitude, clearance and separation fields are replaced by the ones above; its
-  /// max_refinements and time_budget_s by the ones below.
+  /// Its grid is the window's; its max_refinements and time_budget_s are replaced by the ones
+  /// below. The limits are the problem's.
   TrajectoryOptimizerOptions optimizer = default_optimizer();
   int max_refinements = 3;                 ///< ≥ 0: re-solves after a failed validation
   /// > 0: CPU time of all Ipopt solves (Ipopt's clock: the process's CPU time). The on-board

@@ -29,13 +29,8 @@ void validate_options(const PathSearchOptions& o) {
   auto finite = [](double v) { return std::isfinite(v); };
   require(finite(o.cell_size_m) && o.cell_size_m > 0.0, "cell_size_m", o.cell_size_m,
           "must be finite and > 0");
-  require(finite(o.safe_clearance_m) && o.safe_clearance_m >= 0.0, "safe_clearance_m",
-          o.safe_clearance_m, "must be finite and >= 0");
   require(finite(o.turn_margin_m) && o.turn_margin_m >= 0.0, "turn_margin_m", o.turn_margin_m,
           "must be finite and >= 0");
-  require(finite(o.min_altitude_m), "min_altitude_m", o.min_altitude_m, "must be finite");
-  require(finite(o.max_altitude_m) && o.max_altitude_m > o.min_altitude_m, "max_altitude_m",
-          o.max_altitude_m, "must be finite and > min_altitude_m");
   require(o.max_pitch_rad > 0.0 && o.max_pitch_rad < kPi / 2, "max_pitch_rad", o.max_pitch_rad,
           "must be in (0, pi/2)");
   require(finite(o.climb_penalty) && o.climb_penalty >= 0.0, "climb_penalty", o.climb_penalty,
@@ -71,7 +66,7 @@ class LegSearch {
     for (int c = 0; c < n; ++c) {
       z_[c] = grid_.blocked(c) && c != start_ && c != goal_
                   ? kInf
-                  : std::min(grid_.required_altitude_m(c), o_.max_altitude_m);
+                  : std::min(grid_.required_altitude_m(c), grid_.limits().altitude.max_m);
     }
     z_goal_ = z_[goal_];
   }
@@ -294,16 +289,16 @@ std::string describe(const NamedPoint& p, const char* role) {
 
 // Empty if the point may be a pin of the path, else the reason.
 std::string check_point(const ClearanceGrid& grid, const NamedPoint& p, const char* role) {
-  const auto& o = grid.options();
+  const world::AltitudeBand& band = grid.limits().altitude;
   const Vec3& x = p.position_m;
   if (!x.allFinite()) return describe(p, role) + ": position is not finite";
   if (!grid.contains(x.x(), x.y())) return describe(p, role) + ": outside the search area";
-  if (x.z() < o.min_altitude_m || x.z() > o.max_altitude_m) {
-    return describe(p, role) + fmt::format(": altitude outside the band [{}, {}] m",
-                                           o.min_altitude_m, o.max_altitude_m);
+  if (x.z() < band.min_m || x.z() > band.max_m) {
+    return describe(p, role) +
+           fmt::format(": altitude outside the band [{}, {}] m", band.min_m, band.max_m);
   }
   const double ground = grid.terrain().height(x.x(), x.y());
-  const double needed = o.safe_clearance_m + grid.terrain().model_error_m();
+  const double needed = grid.limits().clearance_floor_m(grid.terrain());
   if (x.z() < ground) {
     return describe(p, role) + fmt::format(": inside the terrain (ground at {:.1f} m)", ground);
   }
@@ -340,7 +335,7 @@ LegProfile profile_leg(const ClearanceGrid& grid, const std::vector<Vec2>& poly,
   const auto& o = grid.options();
   const world::Terrain& terrain = grid.terrain();
   const double slope = std::tan(o.max_pitch_rad) * (1.0 - 1e-9);  // strictly inside θ_max
-  const double hard_offset = o.safe_clearance_m + terrain.model_error_m();
+  const double hard_offset = grid.limits().clearance_floor_m(terrain);
   std::vector<ProfileSample> samples;
   double s = 0.0;
   for (std::size_t k = 0; k + 1 < poly.size(); ++k) {
@@ -361,16 +356,16 @@ LegProfile profile_leg(const ClearanceGrid& grid, const std::vector<Vec2>& poly,
   if (result.needs_loop()) return result;
   for (auto& smp : samples) {
     const double cone = std::min(z_a + slope * smp.s, z_b + slope * (total - smp.s));
-    const double upper = std::min(cone, o.max_altitude_m);
+    const double upper = std::min(cone, grid.limits().altitude.max_m);
     // The pad covers terrain curvature between samples; near a pin it shrinks so that a pin at
     // exactly the required clearance stays reachable.
     const double pad = std::min(pad_m, slope * std::min(smp.s, total - smp.s));
     const double hard = terrain.height(smp.xy.x(), smp.xy.y()) + hard_offset + pad;
-    if (hard > o.max_altitude_m) {
+    if (hard > grid.limits().altitude.max_m) {
       result.error = fmt::format(
           "target '{}': terrain at ({:.1f}, {:.1f}) on its leg needs altitude >= {:.1f} m, above "
           "the max altitude {:.1f} m",
-          target_name, smp.xy.x(), smp.xy.y(), hard, o.max_altitude_m);
+          target_name, smp.xy.x(), smp.xy.y(), hard, grid.limits().altitude.max_m);
       return result;
     }
     if (hard > z_a + slope * smp.s + 1e-9) {
@@ -478,9 +473,10 @@ std::string_view to_string(PathStatus status) {
 }
 
 ClearanceGrid::ClearanceGrid(const world::Terrain& terrain, const SearchArea& area,
-                             const PathSearchOptions& options)
-    : terrain_(terrain), area_(area), options_(options) {
+                             const world::SafetyLimits& limits, const PathSearchOptions& options)
+    : terrain_(terrain), area_(area), limits_(limits), options_(options) {
   const auto t0 = std::chrono::steady_clock::now();
+  world::validate(limits_);
   validate_options(options_);
   if (!area.min_m.allFinite() || !area.max_m.allFinite() || !(area.max_m.x() > area.min_m.x()) ||
       !(area.max_m.y() > area.min_m.y())) {
@@ -518,7 +514,7 @@ ClearanceGrid::ClearanceGrid(const world::Terrain& terrain, const SearchArea& ar
           *std::max_element(line.begin() + a, line.begin() + b + 1);
     }
   }
-  const double offset = options_.safe_clearance_m + terrain.model_error_m();
+  const double offset = limits_.clearance_floor_m(terrain);
   required_m_.assign(static_cast<std::size_t>(rows_) * cols_, 0.0);
   for (int r = 0; r < rows_; ++r) {
     const auto [a, b] = range(r * cell, (r + 1) * cell + 2 * margin, step_y, ny);
@@ -526,7 +522,7 @@ ClearanceGrid::ClearanceGrid(const world::Terrain& terrain, const SearchArea& ar
       double top = -kInf;
       for (int j = a; j <= b; ++j)
         top = std::max(top, row_max[static_cast<std::size_t>(j) * cols_ + c]);
-      required_m_[index(r, c)] = std::max(options_.min_altitude_m, top + offset);  // eq. 14, 19–20
+      required_m_[index(r, c)] = std::max(limits_.altitude.min_m, top + offset);  // eq. 14, 19–20
     }
   }
   build_time_ms_ = elapsed_ms(t0);
@@ -611,13 +607,13 @@ PathResult plan_initial_path(const ClearanceGrid& grid, const NamedPoint& start,
             PathStatus::kUnreachable,
             fmt::format("target '{}' is unreachable from '{}': it is enclosed by terrain above the "
                         "altitude band (max {:.0f} m); its free region is {} cells",
-                        t.name, from->name, o.max_altitude_m, goal_region),
+                        t.name, from->name, grid.limits().altitude.max_m, goal_region),
             t.name);
       }
       return fail(PathStatus::kUnreachable,
                   fmt::format("start '{}' is enclosed by terrain above the altitude band (max "
                               "{:.0f} m; free region {} cells): target '{}' is unreachable",
-                              from->name, o.max_altitude_m, start_region, t.name),
+                              from->name, grid.limits().altitude.max_m, start_region, t.name),
                   from->name);
     }
     // Drop repeated points (a start and goal in the same cell centre, etc.).
@@ -631,7 +627,7 @@ PathResult plan_initial_path(const ClearanceGrid& grid, const NamedPoint& start,
   }
 
   // Vertical profile, verified; the pad grows if the dense check finds terrain between samples.
-  const double required = o.safe_clearance_m + grid.terrain().model_error_m();
+  const double required = grid.limits().clearance_floor_m(grid.terrain());
   double pad = o.profile_pad_m;
   for (int attempt = 0; attempt < 4; ++attempt, pad = std::max(1.0, 4.0 * pad)) {
     std::vector<Vec3> waypoints{start.position_m};
@@ -668,8 +664,8 @@ PathResult plan_initial_path(const ClearanceGrid& grid, const NamedPoint& start,
     result.min_clearance_m = check.min_clearance_m;
     result.max_pitch_rad = check.max_pitch_rad;
     constexpr double kTolerance_m = 1e-6;  // round-off of the profile arithmetic
-    const bool band_ok = check.min_altitude_m >= o.min_altitude_m - kTolerance_m &&
-                         check.max_altitude_m <= o.max_altitude_m + kTolerance_m;
+    const bool band_ok = check.min_altitude_m >= grid.limits().altitude.min_m - kTolerance_m &&
+                         check.max_altitude_m <= grid.limits().altitude.max_m + kTolerance_m;
     const bool pitch_ok = check.max_pitch_rad <= o.max_pitch_rad + 1e-9;
     if (check.min_clearance_m >= required - kTolerance_m && band_ok && pitch_ok) {
       result.status = PathStatus::kFound;

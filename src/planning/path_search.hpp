@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::planning {
@@ -51,10 +52,7 @@ namespace ridgeline::planning {
 /// Options of the clearance grid and the search, with documented defaults (DESIGN §7 values).
 struct PathSearchOptions {
   double cell_size_m = 20.0;                ///< Δ, side of a grid cell (> 0)
-  double safe_clearance_m = 20.0;           ///< h_safe (≥ 0)
   double turn_margin_m = 10.0;              ///< footprint growth on every side, ≈ R_min (≥ 0)
-  double min_altitude_m = 40.0;             ///< H_min
-  double max_altitude_m = 500.0;            ///< H_max
   double max_pitch_rad = deg_to_rad(30.0);  ///< θ_max, in (0, π/2)
   double climb_penalty = 1.0;               ///< k_climb, extra cost per metre climbed (≥ 0)
   double turn_penalty_m = 5.0;              ///< k_turn, cost per radian of heading change (≥ 0)
@@ -81,16 +79,17 @@ struct NamedPoint {
 /// search. Keeps a reference to `terrain`, which must outlive it.
 class ClearanceGrid {
  public:
-  /// Throws InputError (field `path_search.<name>` or `area`) on a bad option or area.
+  /// Throws InputError (field `path_search.<name>`, `area` or the limit's) on a bad option,
+  /// area or limit.
   ClearanceGrid(const world::Terrain& terrain, const SearchArea& area,
-                const PathSearchOptions& options = {});
+                const world::SafetyLimits& limits, const PathSearchOptions& options = {});
 
   int rows() const { return rows_; }
   int cols() const { return cols_; }
   /// z_req of the cell at (row, col) (row 0 south, col 0 west), metres.
   double required_altitude_m(int row, int col) const { return required_m_[index(row, col)]; }
   bool blocked(int row, int col) const {
-    return required_m_[index(row, col)] > options_.max_altitude_m;
+    return required_m_[index(row, col)] > limits_.altitude.max_m;
   }
   /// Cell index containing (x, y), clamped to the grid.
   int cell_of(double x_m, double y_m) const;
@@ -99,16 +98,18 @@ class ClearanceGrid {
 
   const world::Terrain& terrain() const { return terrain_; }
   const SearchArea& area() const { return area_; }
+  const world::SafetyLimits& limits() const { return limits_; }
   const PathSearchOptions& options() const { return options_; }
   double build_time_ms() const { return build_time_ms_; }
 
   int index(int row, int col) const { return row * cols_ + col; }
   double required_altitude_m(int cell) const { return required_m_[cell]; }
-  bool blocked(int cell) const { return required_m_[cell] > options_.max_altitude_m; }
+  bool blocked(int cell) const { return required_m_[cell] > limits_.altitude.max_m; }
 
  private:
   const world::Terrain& terrain_;
   SearchArea area_;
+  world::SafetyLimits limits_;
   PathSearchOptions options_;
   int rows_ = 0;
   int cols_ = 0;

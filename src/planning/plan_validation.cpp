@@ -14,12 +14,6 @@ namespace {
 
 void check_options(const PlanValidationOptions& o) {
   auto finite = [](double v) { return std::isfinite(v); };
-  if (!finite(o.min_altitude_m) || !finite(o.max_altitude_m) || !(o.min_altitude_m < o.max_altitude_m))
-    throw InputError("options.min_altitude_m", "must be finite and below options.max_altitude_m");
-  if (!finite(o.terrain_clearance_m) || o.terrain_clearance_m < 0.0)
-    throw InputError("options.terrain_clearance_m", "must be finite and >= 0");
-  if (!finite(o.separation_m) || o.separation_m < 0.0)
-    throw InputError("options.separation_m", "must be finite and >= 0");
   if (!(o.terrain_step_m > 0.0 && o.terrain_step_m <= 5.0))
     throw InputError("options.terrain_step_m", "must be in (0, 5] m");
   if (!(o.separation_period_s > 0.0 && finite(o.separation_period_s)))
@@ -100,13 +94,15 @@ std::string PlanValidationReport::summary(int max_lines) const {
 
 PlanValidationReport validate_plan(const world::Terrain& terrain,
                                    const std::vector<TimedPath>& paths,
+                                   const world::SafetyLimits& limits,
                                    const PlanValidationOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  world::validate(limits);
   check_options(options);
   for (int i = 0; i < static_cast<int>(paths.size()); ++i) check_path(paths[i], i);
 
   PlanValidationReport report;
-  const double required_m = options.terrain_clearance_m + terrain.model_error_m();
+  const double required_m = limits.clearance_floor_m(terrain);
   const int n_uav = static_cast<int>(paths.size());
 
   // Terrain clearance and altitude band, per UAV and segment.
@@ -117,8 +113,8 @@ PlanValidationReport validate_plan(const world::Terrain& terrain,
       const double z = ps[k].z();
       report.min_altitude_m = std::min(report.min_altitude_m, z);
       report.max_altitude_m = std::max(report.max_altitude_m, z);
-      const double low = options.min_altitude_m - z;
-      const double high = z - options.max_altitude_m;
+      const double low = limits.altitude.min_m - z;
+      const double high = z - limits.altitude.max_m;
       if (low > options.tolerance_m || high > options.tolerance_m) {
         PlanViolation v;
         v.kind = low > 0.0 ? ViolationKind::kAltitudeLow : ViolationKind::kAltitudeHigh;
@@ -131,7 +127,7 @@ PlanValidationReport validate_plan(const world::Terrain& terrain,
             "{}: UAV {} waypoint {} at t = {:.2f} s, ({:.1f}, {:.1f}, {:.1f}): z = {:.2f} m is "
             "{:.2f} m outside [{:.1f}, {:.1f}] m",
             to_string(v.kind), uav_name(paths, i), k, v.time_s, ps[k].x(), ps[k].y(), ps[k].z(), z,
-            v.amount_m, options.min_altitude_m, options.max_altitude_m);
+            v.amount_m, limits.altitude.min_m, limits.altitude.max_m);
         report.violations.push_back(std::move(v));
       }
     }
@@ -188,7 +184,7 @@ PlanValidationReport validate_plan(const world::Terrain& terrain,
     const double dt = options.separation_period_s;
     const long samples = static_cast<long>(std::ceil((t_hi - t_lo) / dt - 1e-9)) + 1;
     const long per_window = std::max(1L, static_cast<long>(std::round(options.window_s / dt)));
-    const double d_safe = options.separation_m;
+    const double d_safe = options.enforce_separation ? limits.separation_m : 0.0;
 
     std::vector<PathCursor> cursors(n_uav);
     for (int i = 0; i < n_uav; ++i) cursors[i].path = &paths[i];

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::planning {
@@ -40,11 +41,11 @@ struct TimedPath {
   std::vector<double> times_s;    ///< same size, strictly increasing
 };
 
+/// How densely to check; the limits themselves are the mission's (world::SafetyLimits).
 struct PlanValidationOptions {
-  double min_altitude_m = 40.0;        ///< H_min, eq. 14
-  double max_altitude_m = 500.0;       ///< H_max
-  double terrain_clearance_m = 20.0;   ///< h_safe, eq. 19–20 (the terrain's model error is added)
-  double separation_m = 10.0;          ///< d_safe, eq. 21
+  /// false: pairs are still measured (min_separation_m) but never reported as violations, for
+  /// plans whose separation is left to the flight (the comparison methods' offline paths).
+  bool enforce_separation = true;
   double terrain_step_m = 2.0;         ///< (0, 5]: horizontal spacing of terrain samples
   double separation_period_s = 0.02;   ///< > 0: spacing of separation samples in time
   double window_s = 5.0;               ///< > 0: time window of the pair pruning
@@ -91,11 +92,13 @@ struct PlanValidationReport {
   std::string summary(int max_lines = 5) const;
 };
 
-/// Validates `paths` (see the file comment). Throws InputError (field `paths[i].…` or
-/// `options.…`) on malformed input: empty paths, size mismatch, non-finite values, times not
-/// strictly increasing, or options out of range.
+/// Validates `paths` against `limits` (see the file comment). Throws InputError (field
+/// `paths[i].…`, `options.…` or the limit's scenario field) on malformed input: empty paths,
+/// size mismatch, non-finite values, times not strictly increasing, limits or options out of
+/// range.
 PlanValidationReport validate_plan(const world::Terrain& terrain,
                                    const std::vector<TimedPath>& paths,
+                                   const world::SafetyLimits& limits,
                                    const PlanValidationOptions& options = {});
 
 }  // namespace ridgeline::planning

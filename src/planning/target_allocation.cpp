@@ -577,10 +577,10 @@ AllocationResult allocate_targets(const AllocationProblem& problem,
 }
 
 double estimate_leg_cost(const world::Terrain& terrain, const Vec3& a_m, const Vec3& b_m,
-                         const CostEstimateOptions& options) {
+                         const world::SafetyLimits& limits, const CostEstimateOptions& options) {
   const double horizontal = (b_m - a_m).head<2>().norm();
   const int steps = std::max(1, static_cast<int>(std::ceil(horizontal / options.sample_step_m)));
-  const double floor_offset = options.clearance_m + terrain.model_error_m();
+  const double floor_offset = limits.clearance_floor_m(terrain);
   auto flown = [&](double t) {
     const Vec3 p = a_m + t * (b_m - a_m);
     // The endpoints are where they are; only the interior is lifted over the terrain.
@@ -602,7 +602,9 @@ double estimate_leg_cost(const world::Terrain& terrain, const Vec3& a_m, const V
 AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
                                           const std::vector<Vec3>& uav_starts_m,
                                           const std::vector<AllocationTarget>& targets,
+                                          const world::SafetyLimits& limits,
                                           const CostEstimateOptions& options) {
+  world::validate(limits);
   if (!(options.sample_step_m > 0.0) || !std::isfinite(options.sample_step_m)) {
     throw InputError("cost_estimate.sample_step_m",
                      fmt::format("{} must be finite and > 0", options.sample_step_m));
@@ -610,9 +612,6 @@ AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
   if (!(options.climb_penalty >= 0.0) || !std::isfinite(options.climb_penalty)) {
     throw InputError("cost_estimate.climb_penalty",
                      fmt::format("{} must be finite and >= 0", options.climb_penalty));
-  }
-  if (!std::isfinite(options.clearance_m)) {
-    throw InputError("cost_estimate.clearance_m", "must be finite");
   }
   const auto n_uav = static_cast<Eigen::Index>(uav_starts_m.size());
   const auto n_target = static_cast<Eigen::Index>(targets.size());
@@ -622,14 +621,14 @@ AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
   for (Eigen::Index i = 0; i < n_uav; ++i) {
     for (Eigen::Index j = 0; j < n_target; ++j) {
       costs.start_cost(i, j) =
-          estimate_leg_cost(terrain, uav_starts_m[i], targets[j].position_m, options);
+          estimate_leg_cost(terrain, uav_starts_m[i], targets[j].position_m, limits, options);
     }
   }
   for (Eigen::Index j = 0; j < n_target; ++j) {
     for (Eigen::Index k = 0; k < n_target; ++k) {
       if (j != k)
-        costs.target_cost(j, k) =
-            estimate_leg_cost(terrain, targets[j].position_m, targets[k].position_m, options);
+        costs.target_cost(j, k) = estimate_leg_cost(terrain, targets[j].position_m,
+                                                    targets[k].position_m, limits, options);
     }
   }
   return costs;

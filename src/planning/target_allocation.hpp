@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::planning {
@@ -126,7 +127,6 @@ Assignment solve_assignment(const MatX& cost);
 
 /// Options of the terrain-aware straight-line cost estimate.
 struct CostEstimateOptions {
-  double clearance_m = 20.0;   ///< h_safe: the profile flown is max(line, H + h_safe + model error)
   double climb_penalty = 2.0;  ///< extra cost per metre climbed (dimensionless, ≥ 0)
   double sample_step_m = 10.0;  ///< terrain profile sampling step along the line (> 0)
 };
@@ -138,10 +138,11 @@ struct AllocationCosts {
 
 /// Estimated cost between two points a → b over `terrain`: the straight segment is sampled every
 /// ≤ sample_step_m; the flown altitude at each sample is z_f = max(z_line, H(x, y) + h_safe + e)
-/// (e = terrain.model_error_m()); the cost is the 3-D length of the sampled profile
-/// Σ √(Δs² + Δz_f²) plus climb_penalty · Σ max(0, Δz_f). On a level line clear of the terrain it is
-/// |b − a|.
+/// (limits.clearance_floor_m: h_safe plus the terrain's model error e); the cost is the 3-D length
+/// of the sampled profile Σ √(Δs² + Δz_f²) plus climb_penalty · Σ max(0, Δz_f). On a level line
+/// clear of the terrain it is |b − a|.
 double estimate_leg_cost(const world::Terrain& terrain, const Vec3& a_m, const Vec3& b_m,
+                         const world::SafetyLimits& limits,
                          const CostEstimateOptions& options = {});
 
 /// The S and T matrices of estimate_leg_cost for every start→target and target→target pair.
@@ -149,6 +150,7 @@ double estimate_leg_cost(const world::Terrain& terrain, const Vec3& a_m, const V
 AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
                                           const std::vector<Vec3>& uav_starts_m,
                                           const std::vector<AllocationTarget>& targets,
+                                          const world::SafetyLimits& limits,
                                           const CostEstimateOptions& options = {});
 
 }  // namespace ridgeline::planning

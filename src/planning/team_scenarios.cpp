@@ -79,8 +79,8 @@ GlobalPlanningProblem scaled_team(const GlobalPlanningProblem& base, int uav_cou
   const PlannerUav& lead = base.uavs.front();
   const Vec2 ahead(std::cos(lead.start_heading_rad), std::sin(lead.start_heading_rad));
   const Vec2 across(ahead.y(), -ahead.x());
-  const double spacing_m = std::max(30.0, 2.0 * base.separation_m);
-  const double start_floor_m = base.terrain_clearance_m + terrain.model_error_m() + 10.0;
+  const double spacing_m = std::max(30.0, 2.0 * base.limits.separation_m);
+  const double start_floor_m = base.limits.clearance_floor_m(terrain) + 10.0;
   const Vec2 inner_min = base.area.min_m + Vec2(20.0, 20.0);
   const Vec2 inner_max = base.area.max_m - Vec2(20.0, 20.0);
   constexpr int kMaxRing = 100;
@@ -97,7 +97,7 @@ GlobalPlanningProblem scaled_team(const GlobalPlanningProblem& base, int uav_cou
         PlannerUav u = lead;
         u.name = fmt::format("uav{}", p.uavs.size() + 1);
         const double z = std::max(lead.start_m.z(), terrain.height(xy.x(), xy.y()) + start_floor_m);
-        u.start_m = Vec3(xy.x(), xy.y(), std::max(z, base.min_altitude_m));
+        u.start_m = Vec3(xy.x(), xy.y(), std::max(z, base.limits.altitude.min_m));
         p.uavs.push_back(std::move(u));
       }
   if (p.uavs.size() < count)
@@ -116,7 +116,7 @@ GlobalPlanningProblem scaled_team(const GlobalPlanningProblem& base, int uav_cou
   const Vec2 half = (0.5 * (hi - lo)).cwiseMax(Vec2(350.0, 350.0));
   lo = (middle - half).cwiseMax(base.area.min_m + Vec2(30.0, 30.0));
   hi = (middle + half).cwiseMin(base.area.max_m - Vec2(30.0, 30.0));
-  const double target_floor_m = base.terrain_clearance_m + terrain.model_error_m() + 40.0;
+  const double target_floor_m = base.limits.clearance_floor_m(terrain) + 40.0;
   for (int side = 2; p.targets.size() < count; ++side) {
     if (side > 64) throw InputError("uav_count", fmt::format("{} targets do not fit", uav_count));
     std::vector<AllocationTarget> added;
@@ -125,7 +125,7 @@ GlobalPlanningProblem scaled_team(const GlobalPlanningProblem& base, int uav_cou
         const Vec2 xy = lo + Vec2((hi.x() - lo.x()) * (col + 0.5) / side,
                                   (hi.y() - lo.y()) * (row + 0.5) / side);
         const double z = terrain.height(xy.x(), xy.y()) + target_floor_m;
-        if (z < base.min_altitude_m || z > base.max_altitude_m) continue;
+        if (z < base.limits.altitude.min_m || z > base.limits.altitude.max_m) continue;
         const Vec3 position(xy.x(), xy.y(), z);
         bool clear = true;
         for (const auto* list : {&p.targets, &added})

@@ -202,7 +202,7 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
     num_variables_ += std::max(0, setup_.uavs[i].segments() - 1);
   }
 
-  const double floor_m = o.terrain_clearance_m + setup_.terrain->model_error_m();
+  const double floor_m = setup_.limits.clearance_floor_m(*setup_.terrain);
   const double cos_turn = std::cos(o.max_turn_angle_rad);
   for (int i = 0; i < n_uav; ++i) {
     const GridUav& u = setup_.uavs[i];
@@ -274,7 +274,7 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
     return u.fixed[std::min(k, u.segments())] != 0;
   };
   for (const SeparationCandidate& c : setup_.candidates) {
-    const double d = o.separation_m + o.separation_margin_m + c.margin_m;
+    const double d = setup_.limits.separation_m + o.separation_margin_m + c.margin_m;
     auto add = [&](double tau) {
       Row row(RowKind::kSeparation, c.uav_a, c.uav_b, c.k, tau);
       row.lower = d * d;
@@ -378,7 +378,7 @@ void TrajectoryNlp::add_terrain_row(int uav, int k, double tau, double required_
 }
 
 void TrajectoryNlp::bounds(double* x_l, double* x_u, double* g_l, double* g_u) const {
-  const auto& o = setup_.options;
+  const world::AltitudeBand& band = setup_.limits.altitude;
   for (int i = 0; i < static_cast<int>(setup_.uavs.size()); ++i) {
     const GridUav& u = setup_.uavs[i];
     for (int k = 0; k <= u.segments(); ++k) {
@@ -387,8 +387,8 @@ void TrajectoryNlp::bounds(double* x_l, double* x_u, double* g_l, double* g_u) c
         if (u.fixed[k]) {
           x_l[v + d] = x_u[v + d] = u.guess_m[k][d];
         } else if (d == 2) {
-          x_l[v + d] = o.min_altitude_m;  // eq. 14
-          x_u[v + d] = o.max_altitude_m;
+          x_l[v + d] = band.min_m;  // eq. 14
+          x_u[v + d] = band.max_m;
         } else {
           x_l[v + d] = -kInf;
           x_u[v + d] = kInf;

@@ -65,6 +65,7 @@ struct NlpSetup {
   const world::Terrain* terrain = nullptr;
   std::vector<GridUav> uavs;
   double time_step_s = 1.0;
+  world::SafetyLimits limits;
   TrajectoryOptimizerOptions options;
   std::vector<std::vector<int>> terrain_samples;       ///< per UAV, per segment (interior points)
   std::vector<std::vector<double>> clearance_extra_m;  ///< per UAV, per waypoint: extra margin

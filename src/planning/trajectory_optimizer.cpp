@@ -31,11 +31,6 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   auto finite_nonneg = [](double v) { return std::isfinite(v) && v >= 0.0; };
   if (o.time_step_s <= 0.0 && o.waypoints_per_uav < 2) return bad("waypoints_per_uav", "must be >= 2");
   if (!std::isfinite(o.time_step_s)) return bad("time_step_s", "must be finite");
-  if (!std::isfinite(o.min_altitude_m) || !std::isfinite(o.max_altitude_m) ||
-      !(o.min_altitude_m < o.max_altitude_m))
-    return bad("min_altitude_m", "must be finite and below max_altitude_m");
-  if (!finite_nonneg(o.terrain_clearance_m)) return bad("terrain_clearance_m", "must be >= 0");
-  if (!(o.separation_m > 0.0 && std::isfinite(o.separation_m))) return bad("separation_m", "must be > 0");
   if (!finite_nonneg(o.clearance_margin_m)) return bad("clearance_margin_m", "must be >= 0");
   if (!finite_nonneg(o.separation_margin_m)) return bad("separation_margin_m", "must be >= 0");
   if (o.terrain_samples_per_segment < 0) return bad("terrain_samples_per_segment", "must be >= 0");
@@ -70,7 +65,7 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
 }
 
 std::string check_uav(const TrajectoryUav& u, int i, const world::Terrain& terrain,
-                      const TrajectoryOptimizerOptions& o) {
+                      const world::SafetyLimits& limits) {
   const std::string root = fmt::format("uavs[{}]", i);
   const auto& path = u.initial_path_m;
   if (path.size() < 2) return root + ".initial_path_m: needs at least 2 points";
@@ -97,13 +92,14 @@ std::string check_uav(const TrajectoryUav& u, int i, const world::Terrain& terra
   std::vector<int> fixed = {0};
   fixed.insert(fixed.end(), u.target_indices.begin(), u.target_indices.end());
   if (u.target_indices.empty()) fixed.push_back(last);
-  const double floor_m = o.terrain_clearance_m + terrain.model_error_m();
+  const double floor_m = limits.clearance_floor_m(terrain);
   for (int k : fixed) {
     const Vec3& p = path[k];
     const std::string what = k == 0 ? "start" : "target";
-    if (p.z() < o.min_altitude_m || p.z() > o.max_altitude_m)
-      return fmt::format("{}.initial_path_m[{}]: {} altitude {:.1f} m outside [{:.1f}, {:.1f}] m (eq. 14)",
-                         root, k, what, p.z(), o.min_altitude_m, o.max_altitude_m);
+    if (!limits.altitude.contains(p.z()))
+      return fmt::format(
+          "{}.initial_path_m[{}]: {} altitude {:.1f} m outside [{:.1f}, {:.1f}] m (eq. 14)", root,
+          k, what, p.z(), limits.altitude.min_m, limits.altitude.max_m);
     const double clearance = p.z() - terrain.height(p.x(), p.y());
     if (clearance < floor_m)
       return fmt::format("{}.initial_path_m[{}]: {} is {:.2f} m above the terrain, below the "
@@ -234,10 +230,16 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   if (problem.terrain == nullptr) return fail(TrajectoryStatus::kInvalidInput, "problem.terrain: missing");
   if (problem.uavs.empty()) return fail(TrajectoryStatus::kInvalidInput, "problem.uavs: empty");
   if (std::string e = check_options(options); !e.empty()) return fail(TrajectoryStatus::kInvalidInput, e);
+  try {
+    world::validate(problem.limits);
+  } catch (const InputError& e) {
+    return fail(TrajectoryStatus::kInvalidInput, fmt::format("problem.limits: {}", e.what()));
+  }
+  const world::SafetyLimits& limits = problem.limits;
   const world::Terrain& terrain = *problem.terrain;
   const int n_uav = static_cast<int>(problem.uavs.size());
   for (int i = 0; i < n_uav; ++i)
-    if (std::string e = check_uav(problem.uavs[i], i, terrain, options); !e.empty())
+    if (std::string e = check_uav(problem.uavs[i], i, terrain, limits); !e.empty())
       return fail(TrajectoryStatus::kInvalidInput, e);
 
   // Shared time grid and initial guesses.
@@ -282,10 +284,9 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
                          g.tan_max_pitch});
     }
     GuessDeconflictionOptions deconfliction;
-    deconfliction.separation_m = std::max(options.guess_separation_factor * options.separation_m,
-                                          options.separation_m + options.separation_margin_m);
-    deconfliction.max_altitude_m = options.max_altitude_m;
-    result.guess = deconflict_guesses(guesses, deconfliction);
+    deconfliction.separation_m = std::max(options.guess_separation_factor * limits.separation_m,
+                                          limits.separation_m + options.separation_margin_m);
+    result.guess = deconflict_guesses(guesses, limits.altitude, deconfliction);
     for (std::size_t i = 0; i < grid.size(); ++i) {
       GridUav& g = grid[i];
       g.guess_m = guesses[i].guess_m;
@@ -305,7 +306,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     std::vector<GuessUav> guesses;
     for (const GridUav& g : grid) guesses.push_back({g.guess_m, g.fixed, 1.0, 0.5});
     result.guess.min_separation_before_m =
-        min_guess_separation(guesses, options.guess_separation_factor * options.separation_m,
+        min_guess_separation(guesses, options.guess_separation_factor * limits.separation_m,
                              &result.guess.conflicts_before);
     result.guess.min_separation_after_m = result.guess.min_separation_before_m;
     result.guess.conflicts_after = result.guess.conflicts_before;
@@ -318,16 +319,17 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       for (int k = 0; k <= max_index; ++k) {
         if (!held_fixed(grid[a], k) || !held_fixed(grid[b], k)) continue;
         const double d = (held(grid[a], k) - held(grid[b], k)).norm();
-        if (d < options.separation_m) {
+        if (d < limits.separation_m) {
           const Vec3 p = held(grid[a], k);
           const Vec3 q = held(grid[b], k);
-          return fail(TrajectoryStatus::kInfeasible,
-                      fmt::format("separation (eq. 21): UAVs {} and {} are both fixed at t = {:.1f} s "
-                                  "(start, target or holding at the final point), at ({:.1f}, {:.1f}, "
-                                  "{:.1f}) and ({:.1f}, {:.1f}, {:.1f}), {:.2f} m apart < d_safe = "
-                                  "{:.2f} m",
-                                  grid[a].name, grid[b].name, k * dt, p.x(), p.y(), p.z(), q.x(),
-                                  q.y(), q.z(), d, options.separation_m));
+          return fail(
+              TrajectoryStatus::kInfeasible,
+              fmt::format("separation (eq. 21): UAVs {} and {} are both fixed at t = {:.1f} s "
+                          "(start, target or holding at the final point), at ({:.1f}, {:.1f}, "
+                          "{:.1f}) and ({:.1f}, {:.1f}, {:.1f}), {:.2f} m apart < d_safe = "
+                          "{:.2f} m",
+                          grid[a].name, grid[b].name, k * dt, p.x(), p.y(), p.z(), q.x(), q.y(),
+                          q.z(), d, limits.separation_m));
         }
       }
 
@@ -347,6 +349,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   setup.terrain = &terrain;
   setup.uavs = grid;
   setup.time_step_s = dt;
+  setup.limits = limits;
   setup.options = options;
   for (const GridUav& g : grid) {
     setup.terrain_samples.emplace_back(g.segments(), options.terrain_samples_per_segment);
@@ -354,10 +357,6 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   }
 
   PlanValidationOptions validation;
-  validation.min_altitude_m = options.min_altitude_m;
-  validation.max_altitude_m = options.max_altitude_m;
-  validation.terrain_clearance_m = options.terrain_clearance_m;
-  validation.separation_m = options.separation_m;
   validation.terrain_step_m = options.validation_terrain_step_m;
   validation.separation_period_s = options.validation_separation_period_s;
 
@@ -411,7 +410,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     const std::vector<double>& x = solve.x;
     const std::vector<std::vector<Vec3>> waypoints = nlp.unpack(x.data());
     std::vector<TimedPath> paths = timed_paths(grid, waypoints, dt);
-    result.validation = validate_plan(terrain, paths, validation);
+    result.validation = validate_plan(terrain, paths, limits, validation);
 
     const TrajectoryStatus ipopt_status = solve.status;
     if (ipopt_status != TrajectoryStatus::kSolved) {
@@ -477,7 +476,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
           // A row that would start violated (within d_safe + margin) is left to the dense
           // check: an infeasible new row at a warm start cost Ipopt hundreds of iterations.
           const double d = step_min_distance(waypoints[a], waypoints[b], k);
-          if (d < near_m && d > options.separation_m + options.separation_margin_m + 1.0)
+          if (d < near_m && d > limits.separation_m + options.separation_margin_m + 1.0)
             candidates[{a, b, k}] =
                 SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
         }

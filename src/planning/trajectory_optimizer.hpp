@@ -113,6 +113,7 @@
 #include "planning/guess_deconfliction.hpp"
 #include "planning/plan_validation.hpp"
 #include "vehicle/vehicle_model.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::planning {
@@ -129,6 +130,7 @@ struct TrajectoryUav {
 
 struct TrajectoryProblem {
   const world::Terrain* terrain = nullptr;  ///< must outlive the call
+  world::SafetyLimits limits;               ///< H_min, H_max, h_safe, d_safe (eq. 14, 19–21)
   std::vector<TrajectoryUav> uavs;
 };
 
@@ -140,11 +142,7 @@ struct TrajectoryOptimizerOptions {
   // Grid.
   int waypoints_per_uav = 100;  ///< N: segments of the longest UAV (≥ 2), when time_step_s ≤ 0
   double time_step_s = 0.0;     ///< Δt if > 0 (overrides waypoints_per_uav)
-  // Hard constraints.
-  double min_altitude_m = 40.0;          ///< H_min, eq. 14
-  double max_altitude_m = 500.0;         ///< H_max
-  double terrain_clearance_m = 20.0;     ///< h_safe, eq. 19–20
-  double separation_m = 10.0;            ///< d_safe, eq. 21
+  // Hard constraints: the limits are the problem's; these are how they become rows.
   double clearance_margin_m = 1.0;       ///< m ≥ 0 added to the clearance rows
   double separation_margin_m = 0.5;      ///< ≥ 0 added to d_safe in the separation rows
   int terrain_samples_per_segment = 1;   ///< ≥ 0 interior clearance points per segment

@@ -84,8 +84,8 @@ Scenario task_scenario(const Scenario& base, const world::Terrain& terrain,
                          "fractions of the area must be in [0, 1]");
       const double x = s.area.x_min_m + f.x() * (s.area.x_max_m - s.area.x_min_m);
       const double y = s.area.y_min_m + f.y() * (s.area.y_max_m - s.area.y_min_m);
-      const double z =
-          std::clamp(terrain.height(x, y) + target_height_m, s.altitude.min_m, s.altitude.max_m);
+      const double z = std::clamp(terrain.height(x, y) + target_height_m, s.safety.altitude.min_m,
+                                  s.safety.altitude.max_m);
       s.targets.push_back({fmt::format("{}{}", task.name, k + 1), Vec3(x, y, z), 1, 30.0});
       ++k;
     }

@@ -68,9 +68,6 @@ mpc::UavTrackerOptions make_tracker_options(const Scenario& scenario, const UavS
   o.max_turn_cmd_rate_rad_s2 = m.max_moves[1] / m.prediction_step_s;
   o.max_climb_cmd_rate_m_s2 = m.max_moves[2] / m.prediction_step_s;
   o.slack_linear_weight = m.slack_weight;
-  o.threat_margin_m = scenario.safety.threat_margin_m;
-  o.separation_m = scenario.safety.separation_m;
-  o.terrain_clearance_m = scenario.safety.terrain_clearance_m;
   // The anemometer's error: 3σ of its noise bounds it with 99.7 % per component.
   o.wind_error_bound_m_s = std::max(0.1, 3.0 * scenario.wind.measurement_noise_m_s);
   o.max_threats = std::max<int>(4, static_cast<int>(scenario.threats.size()));
@@ -90,13 +87,7 @@ swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
     o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
   }
   o.broadcast_period_s = 1.0 / scenario.simulation.message_rate_hz;
-  o.min_altitude_m = scenario.altitude.min_m;
-  o.max_altitude_m = scenario.altitude.max_m;
-  o.detour.terrain_clearance_m = scenario.safety.terrain_clearance_m;
-  o.detour.min_altitude_m = scenario.altitude.min_m;
-  o.detour.max_altitude_m = scenario.altitude.max_m;
   o.detour.max_climb_rate_m_s = uav.vehicle.max_climb_rate_m_s;
-  o.detour.threat_margin_m = scenario.safety.threat_margin_m;
   o.optimizer_replan = scenario.planner.optimizer_replan;
   return o;
 }
@@ -113,11 +104,6 @@ baselines::BaselineAgentOptions make_baseline_agent_options(const Scenario& scen
     o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
   }
   o.control_period_s = scenario.mpc.control_period_s;
-  o.terrain_clearance_m = scenario.safety.terrain_clearance_m;
-  o.separation_m = scenario.safety.separation_m;
-  o.threat_margin_m = scenario.safety.threat_margin_m;
-  o.min_altitude_m = scenario.altitude.min_m;
-  o.max_altitude_m = scenario.altitude.max_m;
   o.prediction_step_s = scenario.mpc.prediction_step_s;
   o.prediction_steps = scenario.mpc.horizon_steps;
   // The proposed tracker's command-rate limits (max_moves per prediction step).
@@ -168,24 +154,24 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
     }
     switch (options.method) {
       case Method::kProposed:
-        agents.push_back(std::make_unique<swarm::Agent>(make_agent_options(scenario, i, up),
-                                                        std::move(reference), terrain));
+        agents.push_back(std::make_unique<swarm::Agent>(
+            make_agent_options(scenario, i, up), scenario.safety, std::move(reference), terrain));
         break;
       case Method::kAstarDwa:
         agents.push_back(std::make_unique<baselines::DwaAgent>(
-            make_baseline_agent_options(scenario, i, up), baselines::DwaOptions{},
+            make_baseline_agent_options(scenario, i, up), scenario.safety, baselines::DwaOptions{},
             std::move(reference), terrain));
         break;
       case Method::kWindAware:
         agents.push_back(std::make_unique<baselines::PursuitAgent>(
-            make_baseline_agent_options(scenario, i, up), baselines::PursuitOptions{},
-            std::move(reference), terrain));
+            make_baseline_agent_options(scenario, i, up), scenario.safety,
+            baselines::PursuitOptions{}, std::move(reference), terrain));
         break;
       case Method::kDdpg:
         if (!options.ddpg_policy)
           throw InputError("--ddpg-model", "method ddpg needs a DDPG model (none loaded)");
         agents.push_back(std::make_unique<baselines::DdpgAgent>(
-            make_baseline_agent_options(scenario, i, up), options.ddpg_policy,
+            make_baseline_agent_options(scenario, i, up), scenario.safety, options.ddpg_policy,
             std::move(reference), terrain));
         break;
     }
@@ -239,7 +225,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
   for (int i = 0; i < n; ++i)
     tally[static_cast<std::size_t>(i)].last_position = world.true_position(i);
   std::vector<double> step_us, step_cpu_us, iterations;
-  SafetyTally safety(scenario, *terrain);
+  SafetyTally safety(scenario.safety, static_cast<int>(scenario.uavs.size()), *terrain);
   for (const char* kind : {"altitude", "pitch", "turn"}) m.constraint_violations[kind] = 0;
   double min_turn_radius = kInf;
   std::vector<double> finish_time(static_cast<std::size_t>(n), -1.0);
@@ -322,7 +308,7 @@ MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world:
         }
         if (!world.holding(i)) {
           const vehicle::VehicleParams& vp = scenario.uavs[static_cast<std::size_t>(i)].vehicle;
-          if (p.z() < scenario.altitude.min_m || p.z() > scenario.altitude.max_m)
+          if (p.z() < scenario.safety.altitude.min_m || p.z() > scenario.safety.altitude.max_m)
             ++m.constraint_violations["altitude"];
           if (std::abs(vehicle::pitch_angle_rad(s)) > vp.max_pitch_rad + 1e-3)
             ++m.constraint_violations["pitch"];

@@ -67,13 +67,9 @@ ReplanBenchmarkReport run_replan_benchmark(const planning::GlobalPlanningProblem
                                      "): " + plan.message);
 
   planning::LocalReplanOptions o = options.replan;
-  o.min_altitude_m = problem.min_altitude_m;
-  o.max_altitude_m = problem.max_altitude_m;
-  o.terrain_clearance_m = problem.terrain_clearance_m;
-  o.separation_m = problem.separation_m;
   o.timing.control_period_s = planner.timing.control_period_s;
   report.window = fmt::format("window {:.0f} s, grid {:.1f} s, r_safe {:.0f} m, sweep {}",
-                              o.window_s, o.time_step_s, o.threat_margin_m,
+                              o.window_s, o.time_step_s, problem.limits.threat_margin_m,
                               std::isinf(o.threat_time_margin_s)
                                   ? std::string("over the window")
                                   : fmt::format("+-{:.1f} s", o.threat_time_margin_s));
@@ -115,6 +111,7 @@ ReplanBenchmarkReport run_replan_benchmark(const planning::GlobalPlanningProblem
     p.start_time_s = t0;
     p.vehicle = problem.uavs[static_cast<std::size_t>(i)].vehicle;
     p.threats = {threat};
+    p.limits = problem.limits;
     for (int j = 0; j < static_cast<int>(paths.size()); ++j)
       if (j != i) p.others.push_back(paths[static_cast<std::size_t>(j)]);
 

@@ -10,11 +10,12 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 }  // namespace
 
-SafetyTally::SafetyTally(const Scenario& scenario, const world::Terrain& terrain)
+SafetyTally::SafetyTally(const world::SafetyLimits& limits, int num_uavs,
+                         const world::Terrain& terrain)
     : terrain_(terrain),
-      separation_m_(scenario.safety.separation_m),
-      threat_margin_m_(scenario.safety.threat_margin_m),
-      min_clearance_m_(scenario.uavs.size(), kInf),
+      separation_m_(limits.separation_m),
+      threat_margin_m_(limits.threat_margin_m),
+      min_clearance_m_(static_cast<std::size_t>(num_uavs), kInf),
       min_separation_m_(kInf),
       min_threat_m_(kInf) {}
 

@@ -9,15 +9,16 @@
 #include <vector>
 
 #include "sim/mission_metrics.hpp"
-#include "sim/scenario.hpp"
 #include "sim/truth_world.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::sim {
 
 class SafetyTally {
  public:
-  SafetyTally(const Scenario& scenario, const world::Terrain& terrain);
+  /// Counts against `limits` (d_safe, r_safe) for `num_uavs` UAVs.
+  SafetyTally(const world::SafetyLimits& limits, int num_uavs, const world::Terrain& terrain);
 
   /// UAV `uav` sensed threat `threat`: an encounter.
   void sensed(int uav, int threat);

@@ -82,12 +82,12 @@ void check_placement(Checker& c, const std::string& field, const Vec3& p, const 
                               s.area.y_max_m));
     return;
   }
-  if (p.z() < s.altitude.min_m || p.z() > s.altitude.max_m) {
-    c.fail(field, fmt::format("altitude {:.1f} m is outside the altitude band [{}, {}] m",
-                              p.z(), s.altitude.min_m, s.altitude.max_m));
+  if (p.z() < s.safety.altitude.min_m || p.z() > s.safety.altitude.max_m) {
+    c.fail(field, fmt::format("altitude {:.1f} m is outside the altitude band [{}, {}] m", p.z(),
+                              s.safety.altitude.min_m, s.safety.altitude.max_m));
   }
   const double ground = terrain.height(p.x(), p.y());
-  const double floor = ground + s.safety.terrain_clearance_m + terrain.model_error_m();
+  const double floor = ground + s.safety.clearance_floor_m(terrain);
   if (p.z() < floor) {
     const std::string model_error =
         terrain.model_error_m() > 0.0
@@ -117,10 +117,7 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
   Checker c;
   c.ordered("area.x_min_m", s.area.x_min_m, "area.x_max_m", s.area.x_max_m);
   c.ordered("area.y_min_m", s.area.y_min_m, "area.y_max_m", s.area.y_max_m);
-  c.ordered("altitude.min_m", s.altitude.min_m, "altitude.max_m", s.altitude.max_m);
-  c.non_negative("safety.terrain_clearance_m", s.safety.terrain_clearance_m);
-  c.positive("safety.separation_m", s.safety.separation_m);
-  c.non_negative("safety.threat_margin_m", s.safety.threat_margin_m);
+  c.collect([&] { world::validate(s.safety); });
   if (!c.problems.empty()) return c.problems;  // later checks rely on a sane area and band
 
   if (s.uavs.empty()) c.fail("uavs", "at least one UAV is needed");

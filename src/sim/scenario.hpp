@@ -13,6 +13,7 @@
 #include "core/error.hpp"
 #include "core/types.hpp"
 #include "vehicle/vehicle_model.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 #include "world/wind.hpp"
@@ -31,16 +32,10 @@ struct Area {
   }
 };
 
-/// Hard altitude band of eq. 14 in the frame's z: the terrain datum, or metres above mean sea
-/// level when the scenario has a geodetic origin. A file may state the band above the home
-/// altitude (the origin's, `altitude.reference: home`); the loader adds it, so min_m/max_m
-/// here are always in the frame's z.
-struct AltitudeLimits {
-  enum class Reference { kDatum, kHome };
-  double min_m = 40.0;
-  double max_m = 500.0;
-  Reference stated_reference = Reference::kDatum;  ///< how the file stated the band
-};
+/// How a scenario file stated its altitude band: in the frame's z (`altitude.reference: datum`,
+/// the default) or above the home altitude (the origin's, `reference: home`); the loader adds
+/// the home altitude, so the band in SafetyLimits is always in the frame's z.
+enum class AltitudeReference { kDatum, kHome };
 
 /// A geodetic origin (WGS 84): the local ENU frame's (0, 0) and the home altitude. See
 /// io/geo_frame.hpp for the frame (transverse Mercator on the origin, z above mean sea level).
@@ -48,13 +43,6 @@ struct GeodeticOrigin {
   double lat_deg = 0.0;
   double lon_deg = 0.0;
   double alt_amsl_m = 0.0;
-};
-
-/// Hard safety distances.
-struct SafetyMargins {
-  double terrain_clearance_m = 20.0;  ///< h_safe, eq. 19–20
-  double separation_m = 10.0;         ///< d_safe, eq. 21
-  double threat_margin_m = 10.0;      ///< r_safe: kept outside a threat sphere's surface
 };
 
 /// Where the terrain comes from: inline peaks (eq. 12) or a DEM raster.
@@ -144,8 +132,10 @@ struct Scenario {
   std::uint64_t seed = 1;
   Area area;
   std::optional<GeodeticOrigin> origin;  ///< when set, z is metres above mean sea level
-  AltitudeLimits altitude;
-  SafetyMargins safety;
+  /// h_safe, d_safe, r_safe and the altitude band (YAML `safety:` and `altitude:`); their
+  /// defaults are SafetyLimits' own. The band's datum is mean sea level with an origin.
+  world::SafetyLimits safety;
+  AltitudeReference altitude_stated_reference = AltitudeReference::kDatum;
   TerrainSource terrain;
   std::vector<UavSpec> uavs;
   std::vector<InspectionTarget> targets;

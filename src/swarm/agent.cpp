@@ -38,12 +38,14 @@ class DelayedPlan : public mpc::ReferenceTrajectory {
 
 }  // namespace
 
-Agent::Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledReference> plan,
+Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
+             std::shared_ptr<const mpc::SampledReference> plan,
              std::shared_ptr<const world::Terrain> terrain)
     : options_(options),
+      limits_(limits),
       terrain_(std::move(terrain)),
       reference_(std::make_shared<AgentReference>(std::move(plan))),
-      tracker_(options.tracker) {
+      tracker_(options.tracker, limits) {
   require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
   require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
@@ -170,7 +172,7 @@ bool Agent::hold_point_threatened(double t_s, const Vec3& position_m) const {
   constexpr double kStep = 0.5;  // s; at 8 m/s a threat moves 4 m between checks
   for (const auto& [id, k] : threats_) {
     const world::Threat& th = k.threat;
-    const double keep = th.radius_m + options_.detour.threat_margin_m + options_.detour.clearance_m;
+    const double keep = th.radius_m + limits_.threat_margin_m + options_.detour.clearance_m;
     for (double tau = t_s; tau <= t_s + options_.finish_threat_guard_s; tau += kStep)
       if ((th.centre_at(tau) - position_m).norm() < keep) return true;
   }
@@ -197,13 +199,9 @@ void Agent::replan(double t_s, const Vec3& position_m) {
     p.start_time_s = t_s;
     p.vehicle = options_.tracker.vehicle;
     p.threats = threat_buffer_;
+    p.limits = limits_;
     planning::LocalReplanOptions o = options_.local_replan;
     o.window_s = options_.detour.lookahead_s;
-    o.threat_margin_m = options_.detour.threat_margin_m;
-    o.terrain_clearance_m = options_.detour.terrain_clearance_m;
-    o.separation_m = options_.tracker.separation_m;
-    o.min_altitude_m = options_.min_altitude_m;
-    o.max_altitude_m = options_.max_altitude_m;
     planning::LocalReplanResult r = planning::replan_locally(p, o);
     // No conflict on the flown reference: keep it, a current detour included (it is what
     // avoids the threat, and it ends on the plan).
@@ -218,7 +216,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
     ++counters_.optimizer_fallbacks;  // and the geometric detour below
   }
   const DelayedPlan plan(*reference_);
-  DetourResult detour = plan_detour(plan, t_s, threat_buffer_, *terrain_, options_.detour);
+  DetourResult detour = plan_detour(plan, t_s, threat_buffer_, *terrain_, limits_, options_.detour);
   switch (detour.status) {
     case DetourResult::Status::kNoConflict:
       reference_->set_detour(std::nullopt);
@@ -237,7 +235,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
 }
 
 int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const {
-  const double d_safe = options_.tracker.separation_m;
+  const double d_safe = limits_.separation_m;
   const double conflict_distance = d_safe + options_.neighbour_conflict_margin_m;
   const double horizon = options_.neighbour_lookahead_s;
   constexpr double kCheckStep = 0.25;   // s; at 20 m/s closing speed, 5 m between checks
@@ -285,8 +283,8 @@ vehicle::Input Agent::fallback_command(double t_s, const vehicle::State& state) 
   const double z = state[vehicle::kZ];
   const double clearance = z - terrain_->height(state[vehicle::kX], state[vehicle::kY]);
   double climb = 0.0;
-  if (clearance < 2.0 * options_.tracker.terrain_clearance_m) climb = p.max_climb_rate_m_s;
-  if (z > options_.max_altitude_m - 10.0) climb = -0.5 * p.max_climb_rate_m_s;
+  if (clearance < 2.0 * limits_.terrain_clearance_m) climb = p.max_climb_rate_m_s;
+  if (z > limits_.altitude.max_m - 10.0) climb = -0.5 * p.max_climb_rate_m_s;
   vehicle::Input u(p.min_speed_m_s(), 0.5 * heading_error, climb);
   u[1] = std::clamp(u[1], -p.max_turn_rate_rad_s(v), p.max_turn_rate_rad_s(v));
   // Rate limits of one control period, as the tracker obeys them.

@@ -94,17 +94,14 @@ struct AgentOptions {
   double wind_filter_time_s = 0.5;    ///< ≥ 0; 0 uses the raw anemometer
   int fallback_after_failures = 5;
   int recover_after_successes = 10;
-  double min_altitude_m = 40.0;
-  double max_altitude_m = 500.0;
   /// Re-plan a conflict with the local optimizer (planning/local_replan.hpp: the window
   /// re-optimized against the known threats and the neighbour conflicts, densely validated)
   /// instead of the geometric detour; the detour stays the fallback when the optimizer finds
   /// no valid window. Off by default: an optimizer re-plan costs tens of milliseconds.
   bool optimizer_replan = false;
-  /// Its options. The window is detour.lookahead_s; r_safe, h_safe, d_safe and the altitude
-  /// band are the detour's, the tracker's and this struct's. The threats (and neighbours, which
-  /// enter as moving spheres) are avoided within ±threat_time_margin_s of their predicted
-  /// times: a neighbour's sweep over the whole window would lie along its route.
+  /// Its options. The window is detour.lookahead_s; the limits are the agent's. The threats (and
+  /// neighbours, which enter as moving spheres) are avoided within ±threat_time_margin_s of their
+  /// predicted times: a neighbour's sweep over the whole window would lie along its route.
   planning::LocalReplanOptions local_replan = default_local_replan();
 
   static planning::LocalReplanOptions default_local_replan() {
@@ -116,9 +113,11 @@ struct AgentOptions {
 
 class Agent final : public UavAgent {
  public:
-  /// `plan` is this UAV's reference from the global planner. Throws InputError for invalid
-  /// options (names the field).
-  Agent(const AgentOptions& options, std::shared_ptr<const mpc::SampledReference> plan,
+  /// `plan` is this UAV's reference from the global planner; `limits` the mission's (the
+  /// tracker's soft rows, the detour, the local re-plan, the fallback's climb). Throws
+  /// InputError for invalid options (names the field) or limits.
+  Agent(const AgentOptions& options, const world::SafetyLimits& limits,
+        std::shared_ptr<const mpc::SampledReference> plan,
         std::shared_ptr<const world::Terrain> terrain);
 
   int id() const override { return options_.id; }
@@ -169,6 +168,7 @@ class Agent final : public UavAgent {
   void forget_old_threats(double t_s);
 
   AgentOptions options_;
+  world::SafetyLimits limits_;
   std::shared_ptr<const world::Terrain> terrain_;
   std::shared_ptr<AgentReference> reference_;
   mpc::UavTracker tracker_;

@@ -52,7 +52,7 @@ Vec2 horizontal(const Vec3& v) { return Vec2(v.x(), v.y()); }
 
 DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
                          std::span<const world::Threat> threats, const world::Terrain& terrain,
-                         const DetourOptions& o) {
+                         const world::SafetyLimits& limits, const DetourOptions& o) {
   DetourResult result;
   const int n = std::max(2, static_cast<int>(std::ceil(o.lookahead_s / o.sample_step_s)) + 1);
   std::vector<double> times(n);
@@ -66,7 +66,7 @@ DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
   std::vector<Vec2> push(n, Vec2::Zero());
   bool conflict = false;
   for (const world::Threat& threat : threats) {
-    const double keep = threat.radius_m + o.threat_margin_m + o.clearance_m;
+    const double keep = threat.radius_m + limits.threat_margin_m + o.clearance_m;
     std::vector<Vec2> d(n);
     std::vector<bool> inside(n, false);
     int deepest = -1;
@@ -114,9 +114,9 @@ DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
   for (int j = 0; j < n; ++j) {
     positions[j] = base[j].position_m;
     positions[j].head<2>() += push[j];
-    const double floor =
-        std::max(o.min_altitude_m, terrain.height(positions[j].x(), positions[j].y()) +
-                                       o.terrain_clearance_m + terrain.model_error_m() + 5.0);
+    const double floor = std::max(limits.altitude.min_m,
+                                  terrain.height(positions[j].x(), positions[j].y()) +
+                                      limits.terrain_clearance_m + terrain.model_error_m() + 5.0);
     positions[j].z() = std::max(positions[j].z(), floor);
   }
   // Climb limit: a sample may be at most w·Δt above its neighbours; raise earlier samples
@@ -127,11 +127,11 @@ DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
   for (int j = 1; j < n; ++j)
     positions[j].z() = std::max(positions[j].z(), positions[j - 1].z() - rise);
   for (int j = 0; j < n; ++j) {
-    if (positions[j].z() > o.max_altitude_m) {
+    if (positions[j].z() > limits.altitude.max_m) {
       result.status = DetourResult::Status::kFailed;
       result.message = fmt::format(
           "detour: at t = {:.1f} s it would need z = {:.1f} m, above the altitude limit {:.1f} m",
-          times[j], positions[j].z(), o.max_altitude_m);
+          times[j], positions[j].z(), limits.altitude.max_m);
       return result;
     }
   }

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "mpc/reference.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 
@@ -54,11 +55,7 @@ struct DetourOptions {
   double sample_step_s = 0.5;      ///< spacing of the detour's samples
   double clearance_m = 15.0;       ///< kept beyond R + r_safe, horizontally
   double lateral_rate_m_s = 4.0;   ///< how fast the offset may grow or shrink (ramps)
-  double terrain_clearance_m = 20.0;
-  double min_altitude_m = 40.0;
-  double max_altitude_m = 500.0;
   double max_climb_rate_m_s = 3.0;  ///< the detour's climbs stay below this
-  double threat_margin_m = 10.0;    ///< r_safe
 };
 
 /// Outcome of a local re-plan.
@@ -78,9 +75,10 @@ struct DetourResult {
 /// at its own time to R + r_safe + clearance, the push is dilated in time so it grows and
 /// shrinks at most lateral_rate_m_s (smooth turns in, smooth turns out), raised where the
 /// terrain needs it (climb-limited), and checked against the altitude band. A threat is
-/// treated as a vertical cylinder (conservative: flying over it is not attempted).
+/// treated as a vertical cylinder (conservative: flying over it is not attempted). r_safe,
+/// h_safe and the band are `limits`'.
 DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
                          std::span<const world::Threat> threats, const world::Terrain& terrain,
-                         const DetourOptions& options);
+                         const world::SafetyLimits& limits, const DetourOptions& options);
 
 }  // namespace ridgeline::swarm

@@ -61,8 +61,8 @@ TEST_F(PlanCommand, DefaultPlanKeepsEveryHardConstraintWhenReCheckedFromTheFile)
       // Samples every 20 ms at ≤ 15 m/s are ≤ 0.3 m apart: the check is far denser than 5 m.
       ASSERT_GE(z - terrain.height(x, y), s.safety.terrain_clearance_m - 1e-6)
           << uav["id"] << " at t = " << t;
-      ASSERT_GE(z, s.altitude.min_m - 1e-6);
-      ASSERT_LE(z, s.altitude.max_m + 1e-6);
+      ASSERT_GE(z, s.safety.altitude.min_m - 1e-6);
+      ASSERT_LE(z, s.safety.altitude.max_m + 1e-6);
       if (k > 0) {
         // Samples every control period; the last one is at the end time, possibly sooner.
         if (k + 1 < ref.size()) {

@@ -49,7 +49,7 @@ AgentSetup make_setup() {
 TEST(DdpgAgent, ObservationIsTheEnvironmentsAndTheCommandThePolicys) {
   const AgentSetup s = make_setup();
   const auto policy = some_policy();
-  DdpgAgent agent(s.options, policy, s.reference, s.terrain);
+  DdpgAgent agent(s.options, world::SafetyLimits{}, policy, s.reference, s.terrain);
   std::vector<swarm::Message> outbox;
   const swarm::ThreatObservation seen{3, Vec3(150, -60, 100), Vec3(0, 4, 0), 35.0};
   agent.sense(1.0, std::span<const swarm::ThreatObservation>(&seen, 1), outbox);
@@ -73,7 +73,7 @@ TEST(DdpgAgent, ObservationIsTheEnvironmentsAndTheCommandThePolicys) {
   in.obstacles.push_back({seen.centre_m, seen.velocity_m_s, seen.radius_m});
   // The neighbour at t = 1 s: its prediction starts at stamp + step, so at t it is the first
   // point; it moves 1 m per 0.1 s along x.
-  in.obstacles.push_back({Vec3(31, 20, 100), Vec3(10, 0, 0), s.options.separation_m});
+  in.obstacles.push_back({Vec3(31, 20, 100), Vec3(10, 0, 0), world::SafetyLimits{}.separation_m});
   const learning::Observation expected = learning::make_observation(in, s.options.vehicle);
   const learning::Observation got = agent.observe(1.0, state, wind);
   for (int k = 0; k < learning::kObservationSize; ++k)
@@ -96,7 +96,7 @@ TEST(DdpgAgent, ObservationIsTheEnvironmentsAndTheCommandThePolicys) {
 
 TEST(DdpgAgent, TargetsAreFlownInTurn) {
   const AgentSetup s = make_setup();
-  DdpgAgent agent(s.options, some_policy(), s.reference, s.terrain);
+  DdpgAgent agent(s.options, world::SafetyLimits{}, some_policy(), s.reference, s.terrain);
   vehicle::State state;
   state << 395, 5, 100, 0.0, 10, 0, 0;  // inside target a's radius
   agent.control(10.0, state, Vec3::Zero());
@@ -111,7 +111,7 @@ TEST(DdpgAgent, TargetsAreFlownInTurn) {
 TEST(DdpgAgent, WithoutAPolicyIsAClearError) {
   const AgentSetup s = make_setup();
   try {
-    DdpgAgent agent(s.options, nullptr, s.reference, s.terrain);
+    DdpgAgent agent(s.options, world::SafetyLimits{}, nullptr, s.reference, s.terrain);
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "ddpg_model");

@@ -80,8 +80,8 @@ TEST_F(GeoScenario, LatLonPositionsAndHomeBandAreInTheLocalFrameAboveSeaLevel) {
   const LoadedScenario loaded = load(scenario_yaml(kOrigin, kHomeBand));
   const sim::Scenario& s = loaded.scenario;
   ASSERT_TRUE(s.origin.has_value());
-  EXPECT_DOUBLE_EQ(s.altitude.min_m, 840.0);
-  EXPECT_DOUBLE_EQ(s.altitude.max_m, 1300.0);
+  EXPECT_DOUBLE_EQ(s.safety.altitude.min_m, 840.0);
+  EXPECT_DOUBLE_EQ(s.safety.altitude.max_m, 1300.0);
   const GeoFrame frame(*s.origin);
   const Vec3 a = frame.to_local({46.5092, 7.9443, 950.0});
   EXPECT_LT((s.uavs[0].start_position_m - a).norm(), 1e-9);

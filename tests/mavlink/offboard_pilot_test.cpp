@@ -65,7 +65,11 @@ TEST(OffboardPilot, ArmsStartsOffboardAndTracksACircleThroughMavlinkFrames) {
   vo.params.tau_w_s *= 1.2;
   OffboardPilotOptions po;
   po.flight_duration_s = 30.0;
-  Loopback link{SimulatedVehicle(vo), OffboardPilot(po, left_circle(), nullptr), {}, {}, {}};
+  Loopback link{SimulatedVehicle(vo),
+                OffboardPilot(po, world::SafetyLimits{}, left_circle(), nullptr),
+                {},
+                {},
+                {}};
   double t = 0.0;
   for (; t < 40.0 && !link.pilot.done(); t += 0.02) link.step(t);
   const FlightSummary s = link.pilot.summary();
@@ -146,7 +150,11 @@ TEST(OffboardPilot, StopsWhenTheVehicleLeavesOffboard) {
   vo.initial_state = start_state();
   OffboardPilotOptions po;
   po.flight_duration_s = 30.0;
-  Loopback link{SimulatedVehicle(vo), OffboardPilot(po, left_circle(), nullptr), {}, {}, {}};
+  Loopback link{SimulatedVehicle(vo),
+                OffboardPilot(po, world::SafetyLimits{}, left_circle(), nullptr),
+                {},
+                {},
+                {}};
   double t = 0.0;
   for (; t < 5.0; t += 0.02) link.step(t);
   ASSERT_EQ(link.pilot.phase(), PilotPhase::kFlying);

@@ -92,7 +92,7 @@ TEST(UavTrackerAllocation, StepDoesNotAllocateAfterWarmUp) {
   neighbours[0].step_s = 0.5;
   const Plateau plateau;
   const TrackerEnvironment env{threats, neighbours, &plateau};
-  UavTracker tracker(UavTrackerOptions{});
+  UavTracker tracker(UavTrackerOptions{}, world::SafetyLimits{});
   const ReferencePoint r0 = ref.at(0.0);
   vehicle::State s;
   s << r0.position_m, r0.heading_rad, r0.speed_m_s, r0.turn_rate_rad_s, 0.0;

@@ -100,7 +100,7 @@ struct Log {
 };
 
 Log run(const UavTrackerOptions& options, const ReferenceTrajectory& ref, const Scenario& sc) {
-  UavTracker tracker(options);
+  UavTracker tracker(options, world::SafetyLimits{});
   const vehicle::VehicleParams truth = truth_params();
   GustModel wind(sc.mean_wind_m_s, sc.gust_std_m_s, sc.gust_tau_s, sc.wind_noise_m_s, sc.seed);
   Vec3 w = wind.advance(0.0);
@@ -413,7 +413,7 @@ TEST(UavTracker, KeepsTerrainClearanceOverAHill) {
   // cannot keep the full h_safe = 20 m and must say so: the terrain slack reports the shortfall.
   // The flown clearance may fall short of h_safe only by what was reported, plus 1 m for the
   // truth's model mismatch (τ_w) and the linearization of the curved hill between re-plans.
-  const double h_safe = UavTrackerOptions{}.terrain_clearance_m;
+  const double h_safe = world::SafetyLimits{}.terrain_clearance_m;
   EXPECT_GT(log.min_terrain_clearance_m, h_safe - log.max_terrain_slack_m - 1.0);
   EXPECT_GT(log.min_terrain_clearance_m, 10.0);  // and the UAV is never near the ground
   expect_limits_held(log);
@@ -432,7 +432,7 @@ TEST(UavTracker, KeepsTerrainClearanceOverAHill) {
 TEST(UavTracker, PredictionAgreesWithNonlinearEulerRollout) {
   const HelixReference ref = circle_150m();
   UavTrackerOptions o;
-  UavTracker tracker(o);
+  UavTracker tracker(o, world::SafetyLimits{});
   State s = state_on(ref.at(0.0));
   const Vec3 wind(1.5, -1.0, 0.2);
   double max_diff = 0.0;
@@ -461,14 +461,23 @@ TEST(UavTrackerOptionsCheck, RejectsBadOptionsNamingTheField) {
   UavTrackerOptions o;
   o.prediction_step_s = 0.0;
   try {
-    UavTracker tracker(o);
+    UavTracker tracker(o, world::SafetyLimits{});
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "prediction_step_s");
   }
   o = UavTrackerOptions{};
   o.control_horizon = 50;
-  EXPECT_THROW(UavTracker{o}, InputError);
+  EXPECT_THROW((UavTracker{o, world::SafetyLimits{}}), InputError);
+  // The limits are checked too, naming the scenario's field.
+  world::SafetyLimits limits;
+  limits.threat_margin_m = -1.0;
+  try {
+    UavTracker tracker(UavTrackerOptions{}, limits);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "safety.threat_margin_m");
+  }
 }
 
 // SampledReference from a helix's positions reproduces the helix's heading, speed, turn and

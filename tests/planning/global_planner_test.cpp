@@ -47,12 +47,7 @@ PlanValidationReport recheck(const GlobalPlanningProblem& p, const GlobalPlan& p
     }
     paths.push_back(std::move(path));
   }
-  PlanValidationOptions o;
-  o.min_altitude_m = p.min_altitude_m;
-  o.max_altitude_m = p.max_altitude_m;
-  o.terrain_clearance_m = p.terrain_clearance_m;
-  o.separation_m = p.separation_m;
-  return validate_plan(*p.terrain, paths, o);
+  return validate_plan(*p.terrain, paths, p.limits);
 }
 
 TEST(GlobalPlanner, OptimizedPlanLowersTheCostAndPassesAnIndependentDenseCheck) {
@@ -75,8 +70,35 @@ TEST(GlobalPlanner, OptimizedPlanLowersTheCostAndPassesAnIndependentDenseCheck) 
   }
   const PlanValidationReport check = recheck(p, plan);
   EXPECT_TRUE(check.passed()) << check.summary();
-  EXPECT_GE(check.min_clearance_m, p.terrain_clearance_m);
-  EXPECT_GE(check.min_separation_m, p.separation_m);
+  EXPECT_GE(check.min_clearance_m, p.limits.terrain_clearance_m);
+  EXPECT_GE(check.min_separation_m, p.limits.separation_m);
+}
+
+// The problem's limits are the ones every stage enforces (there is no second copy in the
+// options to drift): a d_safe wider than the starts' spacing (42 m) can be met by no plan, and
+// the planner says so instead of returning one; an h_safe of 45 m lifts every sample of the
+// references to 45 m above the terrain (the default 20 m leaves them lower).
+TEST(GlobalPlanner, EnforcesTheLimitsOfItsProblem) {
+  GlobalPlanningProblem p = default_like_problem();
+  p.limits.separation_m = 100.0;
+  const GlobalPlan apart = plan_mission(p, fast_options());
+  EXPECT_NE(apart.status, GlobalPlanStatus::kPlanned);
+  EXPECT_NE(apart.message.find("separation"), std::string::npos) << apart.message;
+
+  p = default_like_problem();
+  const GlobalPlan low = plan_mission(p, fast_options());
+  ASSERT_EQ(low.status, GlobalPlanStatus::kPlanned) << low.message;
+  ASSERT_LT(low.validation.min_terrain_clearance_m, 45.0);
+  p.limits.terrain_clearance_m = 45.0;
+  for (auto& u : p.uavs) u.start_m.z() = p.terrain->height(u.start_m.x(), u.start_m.y()) + 50.0;
+  for (auto& t : p.targets)
+    t.position_m.z() = p.terrain->height(t.position_m.x(), t.position_m.y()) + 50.0;
+  const GlobalPlan high = plan_mission(p, fast_options());
+  ASSERT_EQ(high.status, GlobalPlanStatus::kPlanned) << high.message;
+  EXPECT_GE(high.validation.min_terrain_clearance_m, 45.0 - 1e-6);
+  const PlanValidationReport check = recheck(p, high);
+  EXPECT_TRUE(check.passed()) << check.summary();
+  EXPECT_GE(check.min_clearance_m, 45.0 - 1e-6);
 }
 
 TEST(GlobalPlanner, OptimizerFailureFallsBackToTheValidatedInitialPathsAndSaysSo) {

@@ -69,7 +69,7 @@ TEST(GuessDeconflictionTest, HeadOnCrossingIsLiftedIntoALayer) {
   const std::vector<GuessUav> before = uavs;
   GuessDeconflictionOptions options;
   options.separation_m = 20.0;
-  const GuessDeconflictionSummary s = deconflict_guesses(uavs, options);
+  const GuessDeconflictionSummary s = deconflict_guesses(uavs, world::AltitudeBand{}, options);
   EXPECT_LT(s.min_separation_before_m, 1e-6);
   EXPECT_EQ(s.conflicts_after, 0);
   EXPECT_EQ(s.lifted_uavs, 1);
@@ -105,7 +105,7 @@ TEST(GuessDeconflictionTest, CrossingWhileClimbingAtTheLimitIsDelayed) {
   second.fixed.push_back(1);
   const std::vector<Vec3> fixed_before = {second.guess_m.front(), second.guess_m[30],
                                           second.guess_m.back()};
-  const GuessDeconflictionSummary s = deconflict_guesses(uavs, {});
+  const GuessDeconflictionSummary s = deconflict_guesses(uavs, world::AltitudeBand{});
   EXPECT_LT(s.min_separation_before_m, 5.0);
   EXPECT_EQ(s.conflicts_after, 0);
   EXPECT_EQ(s.delayed_uavs, 1);
@@ -143,8 +143,8 @@ TEST(GuessDeconflictionTest, RandomTeamsNeverGetWorseAndKeepTheirLimits) {
     }
     const std::vector<GuessUav> before = uavs;
     GuessDeconflictionOptions options;
-    options.max_altitude_m = 300.0;
-    const GuessDeconflictionSummary s = deconflict_guesses(uavs, options);
+    const world::AltitudeBand band{40.0, 300.0};
+    const GuessDeconflictionSummary s = deconflict_guesses(uavs, band, options);
     if (s.conflicts_after == 0) {
       ++resolved;
       EXPECT_GE(brute_min_separation(uavs), options.separation_m - 1e-6) << "trial " << trial;
@@ -156,7 +156,7 @@ TEST(GuessDeconflictionTest, RandomTeamsNeverGetWorseAndKeepTheirLimits) {
       EXPECT_EQ(u.guess_m.back(), before[i].guess_m.back());
       EXPECT_TRUE(u.fixed.back());
       for (std::size_t k = 0; k < u.guess_m.size(); ++k) {
-        EXPECT_LE(u.guess_m[k].z(), options.max_altitude_m + 1e-9);
+        EXPECT_LE(u.guess_m[k].z(), band.max_m + 1e-9);
         if (k > 0) {
           const double climb_m = std::abs(u.guess_m[k].z() - u.guess_m[k - 1].z());
           EXPECT_LE(climb_m, u.max_climb_step_m + 1e-9);
@@ -180,16 +180,16 @@ TEST(GuessDeconflictionTest, BadOptionsNameTheField) {
   GuessDeconflictionOptions options;
   options.separation_m = std::nan("");
   try {
-    deconflict_guesses(uavs, options);
+    deconflict_guesses(uavs, world::AltitudeBand{}, options);
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "guess_deconfliction.separation_m");
   }
   options = {};
   options.slow_speed_ratio = 1.0;
-  EXPECT_THROW(deconflict_guesses(uavs, options), InputError);
+  EXPECT_THROW(deconflict_guesses(uavs, world::AltitudeBand{}, options), InputError);
   uavs[0].fixed.pop_back();
-  EXPECT_THROW(deconflict_guesses(uavs, {}), InputError);
+  EXPECT_THROW(deconflict_guesses(uavs, world::AltitudeBand{}), InputError);
 }
 
 }  // namespace

@@ -82,8 +82,8 @@ double segment_distance(const Vec3& q, const Vec3& a, const Vec3& b) {
 // from the neighbour, the altitude band; both ends join the old reference.
 // Tolerance 0.05 m: the reference is linear between its 0.02 s samples, so sampling it at 0.01 s
 // reproduces the re-plan's own samples and the chords between them (no margin can hide there).
-void expect_valid(const Scene& s, const LocalReplanProblem& p, const LocalReplanResult& r,
-                  const LocalReplanOptions& o = {}) {
+void expect_valid(const Scene& s, const LocalReplanProblem& p, const LocalReplanResult& r) {
+  const world::SafetyLimits& limits = p.limits;
   ASSERT_EQ(r.status, LocalReplanStatus::kReplanned) << r.message;
   ASSERT_TRUE(r.reference.has_value());
   const double t0 = r.window_start_s;
@@ -95,12 +95,12 @@ void expect_valid(const Scene& s, const LocalReplanProblem& p, const LocalReplan
   const TimedPath other = s.other_path();
   for (double t = t0; t <= t1 + 1e-9; t += 0.01) {
     const Vec3 q = r.reference->at(t).position_m;
-    ASSERT_GE(segment_distance(q, a, b), th.radius_m + o.threat_margin_m - 0.05) << "t = " << t;
-    ASSERT_GE(q.z() - s.terrain.height(q.x(), q.y()),
-              o.terrain_clearance_m + s.terrain.model_error_m() - 0.05)
+    ASSERT_GE(segment_distance(q, a, b), th.radius_m + limits.threat_margin_m - 0.05)
         << "t = " << t;
-    ASSERT_GE(q.z(), o.min_altitude_m - 1e-6);
-    ASSERT_LE(q.z(), o.max_altitude_m + 1e-6);
+    ASSERT_GE(q.z() - s.terrain.height(q.x(), q.y()), limits.clearance_floor_m(s.terrain) - 0.05)
+        << "t = " << t;
+    ASSERT_GE(q.z(), limits.altitude.min_m - 1e-6);
+    ASSERT_LE(q.z(), limits.altitude.max_m + 1e-6);
     // The neighbour's position at t, linear between its samples.
     const auto it = std::upper_bound(other.times_s.begin(), other.times_s.end(), t);
     Vec3 c = other.waypoints_m.back();
@@ -109,7 +109,7 @@ void expect_valid(const Scene& s, const LocalReplanProblem& p, const LocalReplan
       const double w = (t - other.times_s[k - 1]) / (other.times_s[k] - other.times_s[k - 1]);
       c = other.waypoints_m[k - 1] + w * (other.waypoints_m[k] - other.waypoints_m[k - 1]);
     }
-    ASSERT_GE((q - c).norm(), o.separation_m - 0.05) << "t = " << t;
+    ASSERT_GE((q - c).norm(), limits.separation_m - 0.05) << "t = " << t;
   }
   // Joins: the same position at t_0 and t_1 (1e-6 m: both are the fixed grid points).
   EXPECT_LT((r.reference->at(t0).position_m - p.reference->at(t0).position_m).norm(), 1e-6);
@@ -230,6 +230,11 @@ TEST(LocalReplan, BadInputNamesTheField) {
   r = replan_locally(s.problem(20.0, s.crossing(20.0, 10.0, 40.0, 4.0, 1.0)), o);
   EXPECT_EQ(r.status, LocalReplanStatus::kInvalidInput);
   EXPECT_NE(r.message.find("options.window_s"), std::string::npos) << r.message;
+  p = s.problem(20.0, s.crossing(20.0, 10.0, 40.0, 4.0, 1.0));
+  p.limits.separation_m = std::nan("");
+  r = replan_locally(p, unhurried());
+  EXPECT_EQ(r.status, LocalReplanStatus::kInvalidInput);
+  EXPECT_NE(r.message.find("safety.separation_m"), std::string::npos) << r.message;
 }
 
 }  // namespace

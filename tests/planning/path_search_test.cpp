@@ -25,19 +25,18 @@ constexpr double kClearanceTolerance_m = 1e-6;
 
 void expect_path_safe(const PeakTerrain& terrain, const PathSearchOptions& o, const PathResult& r) {
   const PathCheck check = check_path(terrain, r.waypoints_m, kTestCheckStep_m);
-  EXPECT_GE(check.min_clearance_m,
-            o.safe_clearance_m + terrain.model_error_m() - kClearanceTolerance_m);
+  const world::SafetyLimits limits;  // the grids of these tests use the default limits
+  EXPECT_GE(check.min_clearance_m, limits.clearance_floor_m(terrain) - kClearanceTolerance_m);
   EXPECT_LE(check.max_pitch_rad, o.max_pitch_rad + 1e-9);
-  EXPECT_GE(check.min_altitude_m, o.min_altitude_m - 1e-6);
-  EXPECT_LE(check.max_altitude_m, o.max_altitude_m + 1e-6);
-  EXPECT_GE(r.min_clearance_m,
-            o.safe_clearance_m + terrain.model_error_m() - kClearanceTolerance_m);
+  EXPECT_GE(check.min_altitude_m, limits.altitude.min_m - 1e-6);
+  EXPECT_LE(check.max_altitude_m, limits.altitude.max_m + 1e-6);
+  EXPECT_GE(r.min_clearance_m, limits.clearance_floor_m(terrain) - kClearanceTolerance_m);
 }
 
 TEST(PathSearch, FlatTerrainGivesTheStraightLine) {
   const PeakTerrain flat(PeakTerrainConfig{});
   const PathSearchOptions o;
-  const ClearanceGrid grid(flat, SearchArea{});
+  const ClearanceGrid grid(flat, SearchArea{}, world::SafetyLimits{});
   const NamedPoint start{"uav0", Vec3(100, 150, 100)};
   const NamedPoint target{"t0", Vec3(1700, 1300, 100)};
   const PathResult r = plan_initial_path(grid, start, {target});
@@ -61,7 +60,7 @@ PeakTerrainConfig wall_terrain() {
 TEST(PathSearch, WallOfPeaksForcesADetour) {
   const PeakTerrain terrain(wall_terrain());
   const PathSearchOptions o;
-  const ClearanceGrid grid(terrain, SearchArea{}, o);
+  const ClearanceGrid grid(terrain, SearchArea{}, world::SafetyLimits{}, o);
   const NamedPoint start{"uav0", Vec3(200, 200, 100)};
   const NamedPoint target{"t0", Vec3(1800, 200, 100)};
   const PathResult r = plan_initial_path(grid, start, {target});
@@ -88,7 +87,7 @@ PeakTerrainConfig ring_terrain(const Vec2& centre) {
 
 TEST(PathSearch, TargetInsideRingIsUnreachableAndNamed) {
   const PeakTerrain terrain(ring_terrain(Vec2(1000, 1000)));
-  const ClearanceGrid grid(terrain, SearchArea{});
+  const ClearanceGrid grid(terrain, SearchArea{}, world::SafetyLimits{});
   const NamedPoint start{"uav0", Vec3(150, 150, 100)};
   const NamedPoint inside{"inspect-ring", Vec3(1000, 1000, 100)};
   PathResult r = plan_initial_path(grid, start, {inside});
@@ -108,7 +107,7 @@ TEST(PathSearch, StartOrTargetInsideTheTerrainIsAnErrorNamingIt) {
   PeakTerrainConfig cfg;
   cfg.peaks.push_back(Peak{1000, 1000, 300, 150, 150});
   const PeakTerrain terrain(cfg);
-  const ClearanceGrid grid(terrain, SearchArea{});
+  const ClearanceGrid grid(terrain, SearchArea{}, world::SafetyLimits{});
   const NamedPoint ok_start{"uav0", Vec3(100, 100, 100)};
   const NamedPoint buried_target{"t-buried", Vec3(1000, 1000, 250)};  // ground is at 300 m
   PathResult r =
@@ -129,7 +128,7 @@ TEST(PathSearch, StartOrTargetInsideTheTerrainIsAnErrorNamingIt) {
 
   PathSearchOptions bad;
   bad.cell_size_m = -1.0;
-  EXPECT_THROW(ClearanceGrid(terrain, SearchArea{}, bad), InputError);
+  EXPECT_THROW(ClearanceGrid(terrain, SearchArea{}, world::SafetyLimits{}, bad), InputError);
 }
 
 // Random terrains like the default scenario (DESIGN §7): 6–8 peaks 80–300 m in 2 km × 2 km.
@@ -158,7 +157,7 @@ TEST(PathSearch, RandomTerrainPathsKeepClearanceAndPitchWhenDenselyChecked) {
   const int trials = 20;
   for (int trial = 0; trial < trials; ++trial) {
     const PeakTerrain terrain(random_terrain(rng));
-    const ClearanceGrid grid(terrain, SearchArea{}, o);
+    const ClearanceGrid grid(terrain, SearchArea{}, world::SafetyLimits{}, o);
     const NamedPoint start{"uav", random_point(rng, terrain, 50, 400)};
     std::vector<NamedPoint> targets{{"a", random_point(rng, terrain, 1200, 1950)},
                                     {"b", random_point(rng, terrain, 900, 1950)}};
@@ -188,7 +187,7 @@ TEST(PathSearch, SteepHeightChangeGetsLoiterLoopsWithinPitchLimit) {
   // descent needs ≈ 433 m of horizontal path, which only loiter loops can provide.
   const PeakTerrain flat(PeakTerrainConfig{});
   const PathSearchOptions o;
-  const ClearanceGrid grid(flat, SearchArea{}, o);
+  const ClearanceGrid grid(flat, SearchArea{}, world::SafetyLimits{}, o);
   const NamedPoint start{"uav0", Vec3(200, 200, 100)};
   const std::vector<NamedPoint> targets{{"high", Vec3(1000, 1000, 400)},
                                         {"low", Vec3(1060, 1000, 150)}};
@@ -207,7 +206,7 @@ TEST(PathSearch, TenMetreCellsOverTwoKilometresIsFast) {
   PathSearchOptions o;
   o.cell_size_m = 10.0;
   const PeakTerrain terrain(wall_terrain());
-  const ClearanceGrid grid(terrain, SearchArea{}, o);
+  const ClearanceGrid grid(terrain, SearchArea{}, world::SafetyLimits{}, o);
   const PathResult r = plan_initial_path(grid, NamedPoint{"uav0", Vec3(50, 50, 100)},
                                          {NamedPoint{"t0", Vec3(1950, 100, 100)}});
   ASSERT_EQ(r.status, PathStatus::kFound) << r.message;
@@ -224,7 +223,7 @@ TEST(PathSearch, TenMetreCellsOverTwoKilometresIsFast) {
   double worst_ms = 0.0, worst_build_ms = 0.0;
   for (int trial = 0; trial < 5; ++trial) {
     const PeakTerrain random(random_terrain(rng));
-    const ClearanceGrid g(random, SearchArea{}, o);
+    const ClearanceGrid g(random, SearchArea{}, world::SafetyLimits{}, o);
     const PathResult leg =
         plan_initial_path(g, NamedPoint{"uav0", random_point(rng, random, 50, 200)},
                           {NamedPoint{"t0", random_point(rng, random, 1800, 1950)}});

@@ -31,7 +31,7 @@ TEST(PlanValidation, CleanPlanPassesAndReportsExactMinima) {
       path("a", {Vec3(0, 0, 100), Vec3(100, 0, 120)}, {0.0, 10.0}),
       path("b", {Vec3(0, 50, 80), Vec3(100, 50, 90)}, {0.0, 10.0}),
   };
-  const PlanValidationReport r = validate_plan(flat(), paths);
+  const PlanValidationReport r = validate_plan(flat(), paths, world::SafetyLimits{});
   EXPECT_TRUE(r.passed()) << r.summary();
   // Flat ground at 0: the clearance is the lowest z; the pair's distance is smallest where
   // the height difference is smallest (t = 0: √(50² + 20²)); both exact at sample points.
@@ -50,7 +50,7 @@ TEST(PlanValidation, FindsATerrainViolationBetweenWaypoints) {
   const std::vector<TimedPath> paths = {path("a", {Vec3(0, 0, 100), Vec3(100, 0, 100)}, {0.0, 10.0})};
   PlanValidationOptions o;
   o.terrain_step_m = 2.0;  // x = 50 is a sample point: the worst sample is the peak itself
-  const PlanValidationReport r = validate_plan(terrain, paths, o);
+  const PlanValidationReport r = validate_plan(terrain, paths, world::SafetyLimits{}, o);
   ASSERT_EQ(r.violations.size(), 1u) << r.summary();
   const PlanViolation& v = r.violations[0];
   EXPECT_EQ(v.kind, ViolationKind::kTerrainClearance);
@@ -67,9 +67,9 @@ TEST(PlanValidation, AddsTheTerrainModelErrorToTheRequiredClearance) {
   c.model_error_m = 3.0;
   const PeakTerrain terrain(c);
   const std::vector<TimedPath> paths = {path("a", {Vec3(0, 0, 45), Vec3(100, 0, 45)}, {0.0, 10.0})};
-  PlanValidationOptions o;
-  o.terrain_clearance_m = 43.0;
-  const PlanValidationReport r = validate_plan(terrain, paths, o);
+  world::SafetyLimits limits;
+  limits.terrain_clearance_m = 43.0;
+  const PlanValidationReport r = validate_plan(terrain, paths, limits);
   ASSERT_EQ(r.violations.size(), 1u);
   EXPECT_NEAR(r.violations[0].amount_m, 1.0, 1e-12);  // 45 < 43 + 3
 }
@@ -77,9 +77,9 @@ TEST(PlanValidation, AddsTheTerrainModelErrorToTheRequiredClearance) {
 TEST(PlanValidation, FindsAltitudeBandViolationsAtWaypoints) {
   const std::vector<TimedPath> paths = {
       path("a", {Vec3(0, 0, 100), Vec3(50, 0, 30), Vec3(100, 0, 510)}, {0.0, 5.0, 10.0})};
-  PlanValidationOptions o;
-  o.terrain_clearance_m = 0.0;
-  const PlanValidationReport r = validate_plan(flat(), paths, o);
+  world::SafetyLimits limits;
+  limits.terrain_clearance_m = 0.0;
+  const PlanValidationReport r = validate_plan(flat(), paths, limits);
   ASSERT_EQ(r.violations.size(), 2u) << r.summary();
   EXPECT_EQ(r.violations[0].kind, ViolationKind::kAltitudeLow);
   EXPECT_EQ(r.violations[0].segment, 1);
@@ -96,7 +96,7 @@ TEST(PlanValidation, FindsACrossingBetweenWaypointTimes) {
       path("a", {Vec3(0, 0, 100), Vec3(100, 0, 100)}, {0.0, 10.0}),
       path("b", {Vec3(50, -50, 100), Vec3(50, 50, 100)}, {0.0, 10.0}),
   };
-  const PlanValidationReport r = validate_plan(flat(), paths);
+  const PlanValidationReport r = validate_plan(flat(), paths, world::SafetyLimits{});
   ASSERT_EQ(r.violations.size(), 1u) << r.summary();
   const PlanViolation& v = r.violations[0];
   EXPECT_EQ(v.kind, ViolationKind::kSeparation);
@@ -114,7 +114,7 @@ TEST(PlanValidation, AFinishedUavHoldsAtItsLastPoint) {
       path("a", {Vec3(0, 0, 100), Vec3(100, 0, 100)}, {0.0, 10.0}),
       path("b", {Vec3(100, -100, 100), Vec3(100, 100, 100)}, {10.0, 30.0}),
   };
-  const PlanValidationReport r = validate_plan(flat(), paths);
+  const PlanValidationReport r = validate_plan(flat(), paths, world::SafetyLimits{});
   ASSERT_EQ(r.violations.size(), 1u) << r.summary();
   EXPECT_NEAR(r.violations[0].time_s, 20.0, 1e-9);
 }
@@ -139,8 +139,8 @@ TEST(PlanValidation, MinimumSeparationMatchesBruteForce) {
       paths.push_back(p);
     }
     PlanValidationOptions o;
-    o.separation_m = 0.0;  // only the minimum matters here
-    const PlanValidationReport r = validate_plan(flat(), paths, o);
+    o.enforce_separation = false;  // only the minimum matters here
+    const PlanValidationReport r = validate_plan(flat(), paths, world::SafetyLimits{}, o);
 
     auto at = [](const TimedPath& p, double t) {
       if (t <= p.times_s.front()) return p.waypoints_m.front();
@@ -171,15 +171,26 @@ TEST(PlanValidation, MinimumSeparationMatchesBruteForce) {
 
 TEST(PlanValidation, RejectsMalformedInputNamingTheField) {
   try {
-    validate_plan(flat(), {path("a", {Vec3(0, 0, 100), Vec3(1, 0, 100)}, {0.0, 0.0})});
+    validate_plan(flat(), {path("a", {Vec3(0, 0, 100), Vec3(1, 0, 100)}, {0.0, 0.0})},
+                  world::SafetyLimits{});
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "paths[0].times_s[1]");
   }
   PlanValidationOptions o;
   o.terrain_step_m = 7.0;
-  EXPECT_THROW(validate_plan(flat(), {}, o), InputError);
-  EXPECT_THROW(validate_plan(flat(), {path("a", {}, {})}), InputError);
+  EXPECT_THROW(validate_plan(flat(), {}, world::SafetyLimits{}, o), InputError);
+  EXPECT_THROW(validate_plan(flat(), {path("a", {}, {})}, world::SafetyLimits{}), InputError);
+  // A limit is checked where it is used, and the error names the scenario's field.
+  world::SafetyLimits band_upside_down;
+  band_upside_down.altitude = {500.0, 40.0};
+  try {
+    validate_plan(flat(), {path("a", {Vec3(0, 0, 100), Vec3(1, 0, 100)}, {0.0, 1.0})},
+                  band_upside_down);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "altitude.min_m");
+  }
 }
 
 }  // namespace

@@ -302,25 +302,27 @@ TEST(EstimateAllocationCosts, FlatTerrainIsStraightLineAndPeaksAddClimb) {
   const Vec3 a(0, 0, 100), b(1000, 500, 150);
   // Each sample step is an exact chord of the straight line, so the sum is |b − a| to round-off,
   // plus the climb penalty on the line's own 50 m of ascent.
-  EXPECT_NEAR(estimate_leg_cost(flat, a, b), (b - a).norm() + 2.0 * 50.0, 1e-9 * (b - a).norm());
+  EXPECT_NEAR(estimate_leg_cost(flat, a, b, world::SafetyLimits{}), (b - a).norm() + 2.0 * 50.0,
+              1e-9 * (b - a).norm());
 
   world::PeakTerrainConfig cfg;
   cfg.peaks.push_back({500, 250, 300, 100, 100});
   world::PeakTerrain hill(cfg);
   CostEstimateOptions options;
-  const double cost = estimate_leg_cost(hill, a, b, options);
+  const double cost = estimate_leg_cost(hill, a, b, world::SafetyLimits{}, options);
   // The profile must climb from ≈ 125 m to ≈ 320 m (peak + h_safe) and back: at least
   // the straight length plus climb_penalty × 190 m of ascent.
   EXPECT_GT(cost, (b - a).norm() + options.climb_penalty * 190.0);
 
-  const AllocationCosts costs =
-      estimate_allocation_costs(hill, {a}, {{"t0", b, 1}, {"t1", a + Vec3(10, 0, 0), 1}});
+  const AllocationCosts costs = estimate_allocation_costs(
+      hill, {a}, {{"t0", b, 1}, {"t1", a + Vec3(10, 0, 0), 1}}, world::SafetyLimits{});
   EXPECT_EQ(costs.start_cost.rows(), 1);
   EXPECT_EQ(costs.target_cost.rows(), 2);
   EXPECT_EQ(costs.target_cost(0, 0), 0.0);
   CostEstimateOptions bad;
   bad.sample_step_m = 0.0;
-  EXPECT_THROW(estimate_allocation_costs(hill, {a}, {{"t0", b, 1}}, bad), InputError);
+  EXPECT_THROW(estimate_allocation_costs(hill, {a}, {{"t0", b, 1}}, world::SafetyLimits{}, bad),
+               InputError);
 }
 
 }  // namespace

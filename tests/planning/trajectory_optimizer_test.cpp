@@ -24,15 +24,11 @@ using world::PeakTerrainConfig;
 
 // An independent dense check, finer than the optimizer's own (2 m, 0.02 s).
 PlanValidationReport fine_check(const world::Terrain& terrain, const TrajectoryResult& r,
-                                const TrajectoryOptimizerOptions& o) {
+                                const world::SafetyLimits& limits) {
   PlanValidationOptions v;
-  v.min_altitude_m = o.min_altitude_m;
-  v.max_altitude_m = o.max_altitude_m;
-  v.terrain_clearance_m = o.terrain_clearance_m;
-  v.separation_m = o.separation_m;
   v.terrain_step_m = 0.5;
   v.separation_period_s = 0.005;
-  return validate_plan(terrain, r.paths, v);
+  return validate_plan(terrain, r.paths, limits, v);
 }
 
 // A small NLP with every row and cost kind active: three UAVs of different lengths (one holds at
@@ -289,9 +285,9 @@ TEST(TrajectoryOptimizer, SingleUavCrossesARidgeWithClearance) {
   o.waypoints_per_uav = 40;  // test time; the bench runs the full sizes
   const TrajectoryResult r = optimize_trajectories(problem, o);
   ASSERT_TRUE(r.ok()) << to_string(r.status) << ": " << r.message;
-  const PlanValidationReport check = fine_check(terrain, r, o);
+  const PlanValidationReport check = fine_check(terrain, r, problem.limits);
   EXPECT_TRUE(check.passed()) << check.summary();
-  EXPECT_GE(check.min_clearance_m, o.terrain_clearance_m);
+  EXPECT_GE(check.min_clearance_m, problem.limits.terrain_clearance_m);
   // Where it crosses the ridge's axis x = 1000 it is at least h_safe above the ridge there: it
   // climbs over the crest (200 m), detours to where the ridge is lower (H falls as
   // exp(−((y − 1000)/500)²)), or both; which one is the optimizer's trade-off of J_L and J_H.
@@ -301,7 +297,8 @@ TEST(TrajectoryOptimizer, SingleUavCrossesARidgeWithClearance) {
     if ((w[k].x() - 1000.0) * (w[k + 1].x() - 1000.0) > 0.0) continue;
     const double s = (1000.0 - w[k].x()) / (w[k + 1].x() - w[k].x());
     const Vec3 p = w[k] + s * (w[k + 1] - w[k]);
-    EXPECT_GE(p.z() - terrain.height(p.x(), p.y()), o.terrain_clearance_m) << "crossing at y " << p.y();
+    EXPECT_GE(p.z() - terrain.height(p.x(), p.y()), problem.limits.terrain_clearance_m)
+        << "crossing at y " << p.y();
     ++crossings;
   }
   EXPECT_GE(crossings, 1);
@@ -319,20 +316,18 @@ TEST(TrajectoryOptimizer, CrossingUavsAreSeparatedAtEqualTimes) {
   problem.uavs.push_back(straight_uav("north", flat, Vec3(500.0, 0.0, 100.0), Vec3(500.0, 1000.0, 100.0)));
   TrajectoryOptimizerOptions o;
   o.waypoints_per_uav = 50;
-  PlanValidationOptions v;
-  v.separation_m = o.separation_m;
-  ASSERT_LT(validate_plan(flat, timed_at_cruise(problem), v).min_separation_m, 1.0)
+  ASSERT_LT(validate_plan(flat, timed_at_cruise(problem), problem.limits).min_separation_m, 1.0)
       << "the guesses must collide for this test to mean anything";
   const TrajectoryResult r = optimize_trajectories(problem, o);
   ASSERT_TRUE(r.ok()) << to_string(r.status) << ": " << r.message;
   EXPECT_GT(r.separation_rows, 0);
-  const PlanValidationReport check = fine_check(flat, r, o);
+  const PlanValidationReport check = fine_check(flat, r, problem.limits);
   EXPECT_TRUE(check.passed()) << check.summary();
-  EXPECT_GE(check.min_separation_m, o.separation_m);
+  EXPECT_GE(check.min_separation_m, problem.limits.separation_m);
   // At the grid times themselves the rows hold with the margin (up to Ipopt's tolerance).
   for (std::size_t k = 0; k < r.paths[0].waypoints_m.size() && k < r.paths[1].waypoints_m.size(); ++k)
     EXPECT_GE((r.paths[0].waypoints_m[k] - r.paths[1].waypoints_m[k]).norm(),
-              o.separation_m + o.separation_margin_m - 1e-4);
+              problem.limits.separation_m + o.separation_margin_m - 1e-4);
 }
 
 // The per-solve iteration limit is max(max_iterations, iterations_per_uav × UAVs): the crossing
@@ -371,7 +366,7 @@ TEST(TrajectoryOptimizer, ThreeUavsOnDefaultLikeTerrainPassDenseValidation) {
   ASSERT_TRUE(r.ok()) << to_string(r.status) << ": " << r.message;
   ASSERT_EQ(r.paths.size(), 3u);
   EXPECT_TRUE(r.validation.passed());
-  const PlanValidationReport check = fine_check(terrain, r, o);
+  const PlanValidationReport check = fine_check(terrain, r, problem.limits);
   EXPECT_TRUE(check.passed()) << check.summary();
   ASSERT_EQ(r.costs.size(), 3u);
   for (const UavCost& c : r.costs) {
@@ -405,7 +400,7 @@ TEST(TrajectoryOptimizer, DenseValidationFailureIsRefinedAndResolved) {
   ASSERT_TRUE(r.ok()) << to_string(r.status) << ": " << r.message;
   EXPECT_EQ(r.status, TrajectoryStatus::kSolvedAfterRefinement);
   EXPECT_GE(r.solves, 2);
-  const PlanValidationReport check = fine_check(terrain, r, o);
+  const PlanValidationReport check = fine_check(terrain, r, problem.limits);
   EXPECT_TRUE(check.passed()) << check.summary();
 }
 

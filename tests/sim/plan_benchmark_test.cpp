@@ -84,12 +84,14 @@ TEST(PlanBenchmark, ScaledTeamsOfThirtyFitTheAreaApartFromEachOther) {
   for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(p.uavs[i].start_m, base.uavs[i].start_m);
   for (std::size_t i = 0; i < p.uavs.size(); ++i) {
     const Vec3& s = p.uavs[i].start_m;
-    EXPECT_GE(s.z() - p.terrain->height(s.x(), s.y()), p.terrain_clearance_m) << p.uavs[i].name;
+    EXPECT_GE(s.z() - p.terrain->height(s.x(), s.y()), p.limits.terrain_clearance_m)
+        << p.uavs[i].name;
     EXPECT_TRUE(s.x() >= p.area.min_m.x() && s.x() <= p.area.max_m.x() &&
                 s.y() >= p.area.min_m.y() && s.y() <= p.area.max_m.y())
         << p.uavs[i].name;
     for (std::size_t j = i + 1; j < p.uavs.size(); ++j)
-      EXPECT_GE((p.uavs[j].start_m - s).norm(), 2.0 * p.separation_m) << p.uavs[i].name << " " << p.uavs[j].name;
+      EXPECT_GE((p.uavs[j].start_m - s).norm(), 2.0 * p.limits.separation_m)
+          << p.uavs[i].name << " " << p.uavs[j].name;
   }
 }
 

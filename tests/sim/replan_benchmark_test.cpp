@@ -55,7 +55,7 @@ TEST(ReplanBenchmark, CountsEveryCaseOnceAndTimesOnlyOptimizedCases) {
   EXPECT_LE(a.replan_ms.median, a.replan_ms.max);
   EXPECT_GE(a.ipopt_iterations.median, 1.0);
   // The dense check's guarantees on every re-planned window (1e-6: its own tolerance).
-  EXPECT_GE(a.min_threat_distance_m, o.replan.threat_margin_m - 1e-6);
+  EXPECT_GE(a.min_threat_distance_m, world::SafetyLimits{}.threat_margin_m - 1e-6);
   EXPECT_GE(a.min_separation_m, 10.0 - 1e-6);
   EXPECT_GE(a.min_terrain_clearance_m, 20.0 - 1e-6);
   EXPECT_GT(a.mean_detour_ratio, 1.0);

@@ -43,7 +43,8 @@ TEST(PlanDetour, NoThreatNearTheReferenceMeansNoConflict) {
   world::Threat far{"far", Vec3(500.0, 400.0, 100.0), Vec3::Zero(), 30.0, 0.0, 1e9};
   const auto terrain = flat(0.0);
   const std::vector<world::Threat> threats{far};
-  const DetourResult r = plan_detour(*plan, 10.0, threats, terrain, DetourOptions{});
+  const DetourResult r =
+      plan_detour(*plan, 10.0, threats, terrain, world::SafetyLimits{}, DetourOptions{});
   EXPECT_EQ(r.status, DetourResult::Status::kNoConflict);
   EXPECT_FALSE(r.reference.has_value());
 }
@@ -58,14 +59,14 @@ TEST(PlanDetour, CrossingThreatIsAvoidedWithTheRequiredClearance) {
   const std::vector<world::Threat> threats{crossing};
   DetourOptions o;
   o.lookahead_s = 60.0;  // the encounter and both ramps fit in the window
-  const DetourResult r = plan_detour(*plan, 0.0, threats, terrain, o);
+  const DetourResult r = plan_detour(*plan, 0.0, threats, terrain, world::SafetyLimits{}, o);
   ASSERT_EQ(r.status, DetourResult::Status::kPlanned) << r.message;
   ASSERT_TRUE(r.reference.has_value());
   // Without the detour the line passes through the threat.
   EXPECT_LT(min_horizontal_distance(*plan, crossing, 0.0, o.lookahead_s), crossing.radius_m);
   // Samples are 0.5 s apart: between them the chord may cut in by a little.
   EXPECT_GE(min_horizontal_distance(*r.reference, crossing, 0.0, o.lookahead_s),
-            crossing.radius_m + o.threat_margin_m + o.clearance_m - 1.0);
+            crossing.radius_m + world::SafetyLimits{}.threat_margin_m + o.clearance_m - 1.0);
   EXPECT_LT((r.reference->at(0.0).position_m - plan->at(0.0).position_m).norm(), 1e-6);
   const double t_end = r.reference->end_time_s();
   EXPECT_LT((r.reference->at(t_end).position_m - plan->at(t_end).position_m).norm(), 1e-6);
@@ -84,13 +85,14 @@ TEST(PlanDetour, DetourIsRaisedOverTerrainAndFailsAboveTheCeiling) {
   DetourOptions o;
   // Terrain at 90 m: the reference itself (100 m) is below h_safe, so the detour climbs.
   const auto high = flat(90.0);
-  const DetourResult raised = plan_detour(*plan, 0.0, threats, high, o);
+  const DetourResult raised = plan_detour(*plan, 0.0, threats, high, world::SafetyLimits{}, o);
   ASSERT_EQ(raised.status, DetourResult::Status::kPlanned) << raised.message;
   for (double t = 0.0; t <= o.lookahead_s; t += 0.5)
-    EXPECT_GE(raised.reference->at(t).position_m.z(), 90.0 + o.terrain_clearance_m);
+    EXPECT_GE(raised.reference->at(t).position_m.z(),
+              90.0 + world::SafetyLimits{}.terrain_clearance_m);
   // Terrain at 490 m with a ceiling of 500 m: no valid detour, and it says why.
   const auto too_high = flat(490.0);
-  const DetourResult failed = plan_detour(*plan, 0.0, threats, too_high, o);
+  const DetourResult failed = plan_detour(*plan, 0.0, threats, too_high, world::SafetyLimits{}, o);
   EXPECT_EQ(failed.status, DetourResult::Status::kFailed);
   EXPECT_NE(failed.message.find("altitude limit"), std::string::npos) << failed.message;
 }

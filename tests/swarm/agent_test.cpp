@@ -43,7 +43,7 @@ vehicle::State state_at(const Vec3& p) {
 TEST(Agent, InvalidOptionsNameTheField) {
   AgentOptions o = options(3, 2);
   try {
-    Agent a(o, line_east(0.0), flat());
+    Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "id");
@@ -51,7 +51,7 @@ TEST(Agent, InvalidOptionsNameTheField) {
 }
 
 TEST(Agent, MalformedAndForeignMessagesAreRejectedAndCounted) {
-  Agent a(options(0, 3), line_east(0.0), flat());
+  Agent a(options(0, 3), world::SafetyLimits{}, line_east(0.0), flat());
   PredictedTrajectory bad;
   bad.uav = 1;
   bad.stamp_s = 1.0;
@@ -70,7 +70,7 @@ TEST(Agent, MalformedAndForeignMessagesAreRejectedAndCounted) {
 }
 
 TEST(Agent, ThreatReportsAreLearnedAndOlderOnesIgnored) {
-  Agent a(options(0, 2), line_east(0.0), flat());
+  Agent a(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
   a.receive(
       Envelope{1, 5.0, 5.01, ThreatReport{1, 4, 5.0, Vec3(500, 0, 100), Vec3(1, 0, 0), 30.0}});
   a.receive(Envelope{1, 4.0, 5.02, ThreatReport{1, 4, 4.0, Vec3(0, 0, 0), Vec3::Zero(), 30.0}});
@@ -87,7 +87,7 @@ TEST(Agent, ThreatReportsAreLearnedAndOlderOnesIgnored) {
 TEST(Agent, OwnSensingIsReportedOncePerPeriod) {
   AgentOptions o = options(0, 2);
   o.threat_report_period_s = 1.0;
-  Agent a(o, line_east(0.0), flat());
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
   std::vector<Message> outbox;
   const std::vector<ThreatObservation> seen{{2, Vec3(400, 50, 100), Vec3(0, -2, 0), 40.0}};
   for (int k = 0; k < 100; ++k) a.sense(k * 0.02, seen, outbox);  // 2 s at 50 Hz
@@ -102,7 +102,7 @@ TEST(Agent, OwnSensingIsReportedOncePerPeriod) {
 // A threat sits on the line ahead: the agent's next control step re-plans a detour, and the
 // reference it tracks keeps away from the threat.
 TEST(Agent, KnownThreatOnTheReferenceTriggersADetour) {
-  Agent a(options(0, 1), line_east(0.0), flat());
+  Agent a(options(0, 1), world::SafetyLimits{}, line_east(0.0), flat());
   std::vector<Message> outbox;
   const std::vector<ThreatObservation> seen{{0, Vec3(300, 0, 100), Vec3::Zero(), 40.0}};
   a.sense(0.0, seen, outbox);
@@ -124,7 +124,7 @@ TEST(Agent, OptimizerReplanAvoidsAKnownThreatAndRejoinsThePlan) {
   AgentOptions o = options(0, 1);
   o.optimizer_replan = true;
   o.local_replan.time_budget_s = 30.0;  // independent of the machine's load
-  Agent a(o, line_east(0.0), flat());
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
   std::vector<Message> outbox;
   const std::vector<ThreatObservation> seen{{0, Vec3(300, 0, 100), Vec3::Zero(), 40.0}};
   a.sense(0.0, seen, outbox);
@@ -136,7 +136,7 @@ TEST(Agent, OptimizerReplanAvoidsAKnownThreatAndRejoinsThePlan) {
   const double window = o.detour.lookahead_s;
   for (double t = 0.0; t <= window; t += 0.05) {
     const Vec3 q = a.reference().at(t).position_m;
-    EXPECT_GE((q - Vec3(300, 0, 100)).norm(), 40.0 + o.detour.threat_margin_m - 0.05)
+    EXPECT_GE((q - Vec3(300, 0, 100)).norm(), 40.0 + world::SafetyLimits{}.threat_margin_m - 0.05)
         << "t = " << t;
   }
   EXPECT_LT((a.reference().at(window).position_m - a.reference().plan_at(window).position_m).norm(),
@@ -148,7 +148,7 @@ TEST(Agent, OptimizerFailureFallsBackToTheDetour) {
   AgentOptions o = options(0, 1);
   o.optimizer_replan = true;
   o.local_replan.time_budget_s = 1e-12;
-  Agent a(o, line_east(0.0), flat());
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
   std::vector<Message> outbox;
   const std::vector<ThreatObservation> seen{{0, Vec3(300, 0, 100), Vec3::Zero(), 40.0}};
   a.sense(0.0, seen, outbox);
@@ -169,7 +169,7 @@ PredictedTrajectory broadcast(int uav, double t_s, const Vec3& start, const Vec3
 TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourWithADetour) {
   // Head-on at 10 m/s each from 150 m apart: they would meet at t = 7.5 s near x = 75.
   const PredictedTrajectory head_on = broadcast(0, 0.0, Vec3(150, 0, 100), Vec3(-10, 0, 0));
-  Agent yielding(options(1, 2), line_east(0.0), flat());
+  Agent yielding(options(1, 2), world::SafetyLimits{}, line_east(0.0), flat());
   yielding.receive(Envelope{0, 0.0, 0.0, head_on});
   yielding.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
   EXPECT_EQ(yielding.counters().neighbour_conflicts, 1u);
@@ -179,7 +179,7 @@ TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourWithADetour) {
   EXPECT_GE(std::hypot(at_meeting.x() - 75.0, at_meeting.y()), 10.0 + 10.0 + 15.0 - 1.0);
 
   // The lower id keeps its plan: the other one gives way.
-  Agent keeping(options(0, 2), line_east(0.0), flat());
+  Agent keeping(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
   PredictedTrajectory from_one = head_on;
   from_one.uav = 1;
   keeping.receive(Envelope{1, 0.0, 0.0, from_one});
@@ -189,7 +189,7 @@ TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourWithADetour) {
 }
 
 TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
-  Agent a(options(0, 2), line_east(0.0), flat());
+  Agent a(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
   a.receive(Envelope{1, 0.0, 0.0, broadcast(1, 0.0, Vec3(60, 0, 100), Vec3::Zero())});
   a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
   EXPECT_EQ(a.counters().neighbour_conflicts, 1u);
@@ -199,7 +199,7 @@ TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
 }
 
 TEST(Agent, ANeighbourOnAParallelTrackIsNoConflict) {
-  Agent a(options(1, 2), line_east(0.0), flat());
+  Agent a(options(1, 2), world::SafetyLimits{}, line_east(0.0), flat());
   a.receive(Envelope{0, 0.0, 0.0, broadcast(0, 0.0, Vec3(0, 40, 100), Vec3(10, 0, 0))});
   a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
   EXPECT_EQ(a.counters().neighbour_conflicts, 0u);
@@ -207,7 +207,7 @@ TEST(Agent, ANeighbourOnAParallelTrackIsNoConflict) {
 }
 
 TEST(Agent, PassingTheLastTargetFinishesAndHolds) {
-  Agent a(options(0, 1), line_east(0.0), flat());
+  Agent a(options(0, 1), world::SafetyLimits{}, line_east(0.0), flat());
   a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
   EXPECT_FALSE(a.finished());
   const AgentStep step = a.control(0.02, state_at(Vec3(990, 5, 100)), Vec3::Zero());
@@ -223,7 +223,7 @@ TEST(Agent, PassingTheLastTargetFinishesAndHolds) {
 // A hovering UAV cannot dodge: with a known threat about to cross its last target, the agent
 // keeps tracking (and detouring) instead of holding there, and holds once the threat is gone.
 TEST(Agent, ALastTargetUnderAnApproachingThreatIsHeldOnlyAfterTheThreatHasPassed) {
-  Agent a(options(0, 1), line_east(0.0), flat());
+  Agent a(options(0, 1), world::SafetyLimits{}, line_east(0.0), flat());
   a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
   std::vector<Message> outbox;
   // 200 m north of the target, coming south at 5 m/s: over the target in 40 s (< 60 s guard).
@@ -244,7 +244,7 @@ TEST(Agent, TargetsStillOpenLongAfterThePlanEndAreReportedMissed) {
   AgentOptions o = options(0, 1);
   o.targets = {{"far", Vec3(0.0, 900.0, 100.0), 30.0, 30.0}};
   o.missed_after_s = 5.0;
-  Agent a(o, line_east(0.0), flat());
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
   a.control(106.0, state_at(Vec3(1000, 0, 100)), Vec3::Zero());
   EXPECT_TRUE(a.finished());
   ASSERT_EQ(a.missed_targets().size(), 1u);
