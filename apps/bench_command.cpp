@@ -13,14 +13,14 @@
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
+#include "benchmarks/mission_benchmark.hpp"
+#include "benchmarks/mpc_benchmark.hpp"
+#include "benchmarks/plan_benchmark.hpp"
+#include "benchmarks/qp_benchmark.hpp"
+#include "benchmarks/replan_benchmark.hpp"
 #include "core/error.hpp"
+#include "mission/stage_inputs.hpp"
 #include "qp/qp_instance_file.hpp"
-#include "sim/mission_benchmark.hpp"
-#include "sim/mission_problem.hpp"
-#include "sim/mpc_benchmark.hpp"
-#include "sim/plan_benchmark.hpp"
-#include "sim/qp_benchmark.hpp"
-#include "sim/replan_benchmark.hpp"
 
 namespace ridgeline::apps {
 
@@ -34,7 +34,7 @@ void register_bench_command(CLI::App& app) {
   // (sim/plan_benchmark.hpp). Large rows take long: --max-uavs / --max-waypoints drop them.
   struct PlanCommandOptions {
     std::string scenario;
-    sim::PlanBenchmarkOptions benchmark;
+    benchmarks::PlanBenchmarkOptions benchmark;
     int max_uavs = 30;
     int max_waypoints = 200;
   };
@@ -56,16 +56,16 @@ void register_bench_command(CLI::App& app) {
                    "optimizer time budget per plan in the scaling rows")
       ->capture_default_str();
   plan->callback([plan_options] {
-    sim::PlanBenchmarkOptions o = plan_options->benchmark;
+    benchmarks::PlanBenchmarkOptions o = plan_options->benchmark;
     if (o.repeats < 1) throw InputError("--repeats", "must be at least 1");
     if (o.scaling_repeats < 0) throw InputError("--scaling-repeats", "must not be negative");
     if (!(o.scaling_time_budget_s > 0.0)) throw InputError("--budget-s", "must be positive");
     std::erase_if(o.uav_counts, [&](int n) { return n > plan_options->max_uavs; });
     std::erase_if(o.waypoint_counts, [&](int n) { return n > plan_options->max_waypoints; });
     const io::LoadedScenario loaded = load_scenario_argument(plan_options->scenario);
-    const sim::PlanBenchmarkReport report =
-        sim::run_plan_benchmark(sim::make_planning_problem(loaded.scenario, loaded.terrain),
-                                sim::make_planner_options(loaded.scenario), o);
+    const benchmarks::PlanBenchmarkReport report = benchmarks::run_plan_benchmark(
+        mission::make_planning_problem(loaded.scenario, loaded.terrain),
+        mission::make_planner_options(loaded.scenario), o);
     std::cout << report.to_json().dump(2) << '\n';
   });
 
@@ -75,7 +75,7 @@ void register_bench_command(CLI::App& app) {
   // (sim/replan_benchmark.hpp).
   struct ReplanCommandOptions {
     std::string scenario;
-    sim::ReplanBenchmarkOptions benchmark;
+    benchmarks::ReplanBenchmarkOptions benchmark;
   };
   auto replan_options = std::make_shared<ReplanCommandOptions>();
   CLI::App* replan = bench->add_subcommand(
@@ -95,7 +95,7 @@ void register_bench_command(CLI::App& app) {
                    "time budget of one re-plan's solves (an early exit is a failure status)")
       ->capture_default_str();
   replan->callback([replan_options] {
-    const sim::ReplanBenchmarkOptions& o = replan_options->benchmark;
+    const benchmarks::ReplanBenchmarkOptions& o = replan_options->benchmark;
     if (o.cases < 1) throw InputError("--cases", "must be at least 1");
     if (!(o.replan.window_s > 0.0 && std::isfinite(o.replan.window_s)))
       throw InputError("--window-s", "must be positive");
@@ -104,15 +104,15 @@ void register_bench_command(CLI::App& app) {
     if (!(o.replan.time_budget_s > 0.0 && std::isfinite(o.replan.time_budget_s)))
       throw InputError("--budget-s", "must be positive");
     const io::LoadedScenario loaded = load_scenario_argument(replan_options->scenario);
-    const sim::ReplanBenchmarkReport report =
-        sim::run_replan_benchmark(sim::make_planning_problem(loaded.scenario, loaded.terrain),
-                                  sim::make_planner_options(loaded.scenario), o);
+    const benchmarks::ReplanBenchmarkReport report = benchmarks::run_replan_benchmark(
+        mission::make_planning_problem(loaded.scenario, loaded.terrain),
+        mission::make_planner_options(loaded.scenario), o);
     std::cout << report.to_json().dump(2) << '\n';
   });
 
   struct MissionCommandOptions {
     std::string scenario;
-    sim::MissionBenchmarkOptions benchmark;
+    benchmarks::MissionBenchmarkOptions benchmark;
   };
   auto mission_options = std::make_shared<MissionCommandOptions>();
   CLI::App* mission = bench->add_subcommand(
@@ -125,12 +125,12 @@ void register_bench_command(CLI::App& app) {
     const io::LoadedScenario loaded = load_scenario_argument(mission_options->scenario);
     const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
     if (!plan) return;
-    const sim::MissionBenchmarkReport report = sim::run_mission_benchmark(
+    const benchmarks::MissionBenchmarkReport report = benchmarks::run_mission_benchmark(
         loaded.scenario, loaded.terrain, *plan, mission_options->benchmark);
     std::cout << report.to_json().dump(2) << '\n';
   });
 
-  auto options = std::make_shared<sim::MpcBenchmarkOptions>();
+  auto options = std::make_shared<benchmarks::MpcBenchmarkOptions>();
   CLI::App* mpc = bench->add_subcommand(
       "mpc", "The MPC step (Np 40, Nc 10, 3 threats, 2 neighbours, terrain) and our QP vs Ipopt");
   mpc->add_option("--steps", options->steps, "closed-loop control steps")->capture_default_str();
@@ -141,7 +141,7 @@ void register_bench_command(CLI::App& app) {
   mpc->callback([options] {
     if (options->steps < 1) throw InputError("--steps", "must be at least 1");
     if (options->ipopt_every < 0) throw InputError("--ipopt-every", "must not be negative");
-    std::cout << sim::run_mpc_benchmark(*options).to_json().dump(2) << '\n';
+    std::cout << benchmarks::run_mpc_benchmark(*options).to_json().dump(2) << '\n';
   });
 
   struct QpCommandOptions {
@@ -167,7 +167,7 @@ void register_bench_command(CLI::App& app) {
                  "against")
       ->capture_default_str();
   qp->callback([qp_options] {
-    sim::QpBenchmarkOptions o;
+    benchmarks::QpBenchmarkOptions o;
     if (qp_options->repeats < 1) throw InputError("--repeats", "must be at least 1");
     o.repeats = qp_options->repeats;
     if (qp_options->method == "active-set") {
@@ -179,18 +179,18 @@ void register_bench_command(CLI::App& app) {
                        "'" + qp_options->method + "' is not one of active-set, interior-point");
     }
     if (qp_options->reference == "ipopt") {
-      o.reference = sim::QpReference::kIpopt;
+      o.reference = benchmarks::QpReference::kIpopt;
     } else if (qp_options->reference == "interior-point") {
-      o.reference = sim::QpReference::kInteriorPoint;
+      o.reference = benchmarks::QpReference::kInteriorPoint;
     } else if (qp_options->reference == "none") {
-      o.reference = sim::QpReference::kNone;
+      o.reference = benchmarks::QpReference::kNone;
     } else {
       throw InputError("--reference",
                        "'" + qp_options->reference + "' is not one of ipopt, interior-point, none");
     }
     const std::vector<qp::QpProblem> instances = qp::read_qp_instance_file(qp_options->instances);
     if (instances.empty()) throw InputError(qp_options->instances, "holds no instances");
-    const sim::QpBenchmarkReport report = sim::run_qp_benchmark(instances, o);
+    const benchmarks::QpBenchmarkReport report = benchmarks::run_qp_benchmark(instances, o);
     if (qp_options->json) {
       std::cout << report.to_json().dump(2) << '\n';
       return;

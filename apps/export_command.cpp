@@ -50,7 +50,7 @@ void run_export(const ExportArgs& args) {
       args.format != "csv") {
     throw InputError("--format", "must be qgc, geojson, kml or csv, got '" + args.format + "'");
   }
-  std::optional<sim::GeodeticOrigin> origin;
+  std::optional<mission::GeodeticOrigin> origin;
   if (!args.origin.empty()) origin = io::parse_origin_text(args.origin, "--origin");
   const io::MissionGeometry mission =
       io::mission_from_plan_json(read_plan(args.plan), args.plan, origin);

@@ -44,7 +44,7 @@ void run_fit_dem(const FitDemArgs& args) {
   options.num_threads = args.threads;
   // With an origin the DEM (in any CRS) is warped into the origin's frame, so the peaks are
   // where a scenario with the same origin puts them.
-  std::optional<sim::GeodeticOrigin> origin;
+  std::optional<mission::GeodeticOrigin> origin;
   if (!args.origin.empty()) origin = io::parse_origin_text(args.origin, "--origin");
   const world::RasterGrid grid = origin ? io::load_dem_in_frame(args.dem, io::GeoFrame(*origin))
                                         : io::load_dem_local(args.dem);

@@ -7,9 +7,9 @@
 // time 0 is the moment the vehicle reports offboard; the flight lasts --duration seconds
 // (default: to the end of the reference). Prints the tracking error against the reference;
 // --out writes it as JSON. Exit 5 when the vehicle left offboard before the end.
-#include <iostream>
-
 #include <fmt/format.h>
+
+#include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "apps/command_support.hpp"
@@ -18,6 +18,7 @@
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
 #include "mavlink/udp_session.hpp"
+#include "mission/stage_inputs.hpp"
 #include "sim/mission.hpp"
 
 namespace ridgeline::apps {
@@ -47,11 +48,11 @@ void register_fly_command(CLI::App& app) {
     if (args->duration_s && !(*args->duration_s > 0.0))
       throw InputError("--duration", fmt::format("{} s is not positive", *args->duration_s));
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
-    const sim::Scenario& sc = loaded.scenario;
+    const mission::Scenario& sc = loaded.scenario;
     const int n = static_cast<int>(sc.uavs.size());
     if (args->uav < 0 || args->uav >= n)
       throw InputError("--uav", fmt::format("{} is not a UAV of the scenario (0..{})", args->uav, n - 1));
-    const sim::UavSpec& uav = sc.uavs[static_cast<std::size_t>(args->uav)];
+    const mission::UavSpec& uav = sc.uavs[static_cast<std::size_t>(args->uav)];
     const std::optional<planning::GlobalPlan> plan = plan_or_report(loaded);
     if (!plan) return;
     const auto it = std::find_if(plan->uavs.begin(), plan->uavs.end(),
@@ -62,7 +63,7 @@ void register_fly_command(CLI::App& app) {
     const auto reference = std::make_shared<const mpc::SampledReference>(*it->timing.reference);
 
     mavlink::OffboardPilotOptions o;
-    o.tracker = sim::make_tracker_options(sc, uav);
+    o.tracker = mission::make_tracker_options(sc, uav);
     o.flight_duration_s = args->duration_s.value_or(reference->end_time_s());
     o.home_altitude_m = home_altitude_m(sc);
     mavlink::OffboardPilot pilot(o, sc.safety, reference, loaded.terrain);

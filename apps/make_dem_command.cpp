@@ -31,7 +31,7 @@ void run_make_dem(const MakeDemArgs& args) {
   if (!(args.cell_m > 0.0)) throw InputError("--cell", "must be positive");
   if (!(args.noise_m >= 0.0)) throw InputError("--noise", "must not be negative");
   const io::LoadedScenario loaded = load_scenario_argument(args.scenario);
-  const sim::Area& area = loaded.scenario.area;
+  const mission::Area& area = loaded.scenario.area;
   std::shared_ptr<const world::Terrain> terrain = loaded.terrain;
   if (args.random_peaks > 0) {
     world::RandomPeaksOptions options;

@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "core/error.hpp"
-#include "sim/statistics.hpp"
+#include "mission/statistics.hpp"
 
 namespace ridgeline::apps {
 namespace {
@@ -66,11 +66,11 @@ std::string describe_exit(int status) {
 
 }  // namespace
 
-double home_altitude_m(const sim::Scenario& scenario) {
+double home_altitude_m(const mission::Scenario& scenario) {
   return scenario.origin ? scenario.origin->alt_amsl_m : 0.0;
 }
 
-MavlinkTeam::MavlinkTeam(const sim::Scenario& scenario, const MavlinkTeamOptions& options)
+MavlinkTeam::MavlinkTeam(const mission::Scenario& scenario, const MavlinkTeamOptions& options)
     : period_s_(scenario.mpc.control_period_s), home_altitude_m_(home_altitude_m(scenario)) {
   const std::size_t n = scenario.uavs.size();
   if (!(options.timeout_s > 0.0) || !std::isfinite(options.timeout_s))
@@ -190,20 +190,21 @@ nlohmann::json MavlinkTeam::to_json() const {
         continue;
       by_reason[std::string(mavlink::to_string(status))] = s.parser.count(status);
     }
-    vehicles.push_back({{"uav", names_[static_cast<std::size_t>(i)]},
-                        {"address", fleet_->address(i)},
-                        {"process", processes_[static_cast<std::size_t>(i)].status},
-                        {"steps", s.steps},
-                        {"datagrams_sent", s.datagrams_sent},
-                        {"frames_sent", s.frames_sent},
-                        {"frames_received", s.parser.accepted()},
-                        {"frames_rejected", s.parser.rejected()},
-                        {"rejected_by_reason", by_reason},
-                        {"bytes_skipped", s.parser.bytes_skipped},
-                        {"resends", s.resends},
-                        {"stale_reports", s.stale_reports},
-                        {"start_s", s.start_s},
-                        {"round_trip_us", sim::to_json(sim::percentiles(s.round_trip_us))}});
+    vehicles.push_back(
+        {{"uav", names_[static_cast<std::size_t>(i)]},
+         {"address", fleet_->address(i)},
+         {"process", processes_[static_cast<std::size_t>(i)].status},
+         {"steps", s.steps},
+         {"datagrams_sent", s.datagrams_sent},
+         {"frames_sent", s.frames_sent},
+         {"frames_received", s.parser.accepted()},
+         {"frames_rejected", s.parser.rejected()},
+         {"rejected_by_reason", by_reason},
+         {"bytes_skipped", s.parser.bytes_skipped},
+         {"resends", s.resends},
+         {"stale_reports", s.stale_reports},
+         {"start_s", s.start_s},
+         {"round_trip_us", mission::to_json(mission::percentiles(s.round_trip_us))}});
     sent += s.frames_sent;
     received += s.parser.accepted();
     rejected += s.parser.rejected();

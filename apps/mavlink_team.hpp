@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "mavlink/lockstep_fleet.hpp"
+#include "mission/scenario.hpp"
 #include "sim/external_vehicles.hpp"
-#include "sim/scenario.hpp"
 
 namespace ridgeline::apps {
 
@@ -23,7 +23,7 @@ namespace ridgeline::apps {
 /// origin's altitude above mean sea level when the scenario has one (z is then AMSL), else 0
 /// (z is the height above the terrain datum, where home is). The one place `vehicle-sim`,
 /// `fly` and `run --mavlink` take it from (ned_frame.hpp applies it).
-double home_altitude_m(const sim::Scenario& scenario);
+double home_altitude_m(const mission::Scenario& scenario);
 
 struct MavlinkTeamOptions {
   /// The scenario file the vehicles load ("" = the embedded default), the one `run` flies.
@@ -40,7 +40,7 @@ class MavlinkTeam : public sim::ExternalVehicles {
  public:
   /// Opens the links and spawns the vehicles. Throws InputError naming --mavlink-vehicles for a
   /// bad address list, std::runtime_error when a process cannot start.
-  MavlinkTeam(const sim::Scenario& scenario, const MavlinkTeamOptions& options);
+  MavlinkTeam(const mission::Scenario& scenario, const MavlinkTeamOptions& options);
   /// Stops the spawned vehicles (SIGTERM, then SIGKILL after 3 s).
   ~MavlinkTeam() override;
   MavlinkTeam(const MavlinkTeam&) = delete;

@@ -74,7 +74,7 @@ void register_montecarlo_command(CLI::App& app) {
     summary["global_plan_s"] = plan->total_time_s;
     nlohmann::json runs = nlohmann::json::array();
     for (const sim::MonteCarloRun& r : report.runs) {
-      nlohmann::json j = sim::to_json(r.metrics);
+      nlohmann::json j = mission::to_json(r.metrics);
       j["run"] = r.index;
       j["seed"] = r.seed;
       j["failures"] = r.failures;

@@ -36,7 +36,7 @@ nlohmann::json to_json(const nodes::WorldNodeResult& world) {
   nlohmann::json lost = nlohmann::json::array();
   for (const int i : world.lost) lost.push_back(world.agents[static_cast<std::size_t>(i)].name);
   int inspected = 0;
-  for (const sim::UavMetrics& u : world.mission.metrics.uavs) inspected += u.targets_inspected;
+  for (const mission::UavMetrics& u : world.mission.metrics.uavs) inspected += u.targets_inspected;
   return {{"mode", world.lock_step ? "lock-step" : "real-time"},
           {"deadline_rule", world.lock_step ? "missed = agent compute time above one control period"
                                             : "missed = no answer before the next control tick"},

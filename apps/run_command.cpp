@@ -35,10 +35,10 @@
 namespace ridgeline::apps {
 namespace {
 
-std::string metrics_table(const sim::MissionMetrics& m) {
+std::string metrics_table(const mission::MissionMetrics& m) {
   std::string out = fmt::format("{:<8} {:>9} {:>10} {:>12} {:>8} {:>8}\n", "uav", "path_m",
                                 "track_rmse", "min_clear_m", "targets", "replans");
-  for (const sim::UavMetrics& u : m.uavs) {
+  for (const mission::UavMetrics& u : m.uavs) {
     out += fmt::format("{:<8} {:>9.0f} {:>10.2f} {:>12.1f} {:>5}/{:<2} {:>8}\n", u.name,
                        u.path_length_m, u.tracking_rmse_m, u.min_terrain_clearance_m,
                        u.targets_inspected, u.targets_assigned, u.replans);
@@ -128,7 +128,7 @@ void register_run_command(CLI::App& app) {
                     << std::flush;
       };
     }
-    const sim::Scenario flown_scenario =
+    const mission::Scenario flown_scenario =
         args->variation ? sim::vary_scenario(loaded.scenario, *loaded.terrain, *args->variation)
                         : loaded.scenario;
     const std::filesystem::path dir(args->out);
@@ -149,10 +149,10 @@ void register_run_command(CLI::App& app) {
                                mo.vehicle_addresses.empty() ? "vehicle-sim processes"
                                                             : "at the given addresses");
     }
-    const sim::MissionResult flown =
+    const mission::MissionResult flown =
         sim::fly_mission(flown_scenario, loaded.terrain, *plan, options);
     if (!args->quiet) std::cerr << '\n';
-    const sim::MissionMetrics& m = flown.metrics;
+    const mission::MissionMetrics& m = flown.metrics;
     std::cout << metrics_table(m);
 
     const nlohmann::json plan_json = io::plan_to_json(*plan, loaded.scenario);
@@ -160,7 +160,7 @@ void register_run_command(CLI::App& app) {
                        {"solve_time_s", plan_json["solve_time_s"]},
                        {"cost", plan_json["cost"]},
                        {"validation", plan_json["validation"]}};
-    nlohmann::json metrics = sim::to_json(m);
+    nlohmann::json metrics = mission::to_json(m);
     if (team) {
       team->stop_vehicles();
       metrics["mavlink"] = team->to_json();
@@ -178,7 +178,7 @@ void register_run_command(CLI::App& app) {
     io::write_file_atomically(dir / "plan.json", plan_json.dump() + "\n");
     io::write_file_atomically(dir / "metrics.json", metrics.dump(2) + "\n");
     io::write_file_atomically(dir / "trajectories.csv",
-                              sim::trajectories_csv(flown.trajectories, loaded.scenario));
+                              mission::trajectories_csv(flown.trajectories, loaded.scenario));
     io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
     std::cout << "wrote summary.json, plan.json, metrics.json and trajectories.csv to "
               << dir.string() << '\n';

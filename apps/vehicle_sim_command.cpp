@@ -75,11 +75,11 @@ void register_vehicle_sim_command(CLI::App& app) {
     if (!(args->duration_s >= 0.0))
       throw InputError("--duration", fmt::format("{} s is negative", args->duration_s));
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
-    const sim::Scenario& sc = loaded.scenario;
+    const mission::Scenario& sc = loaded.scenario;
     const int n = static_cast<int>(sc.uavs.size());
     if (args->uav < 0 || args->uav >= n)
       throw InputError("--uav", fmt::format("{} is not a UAV of the scenario (0..{})", args->uav, n - 1));
-    const sim::UavSpec& uav = sc.uavs[static_cast<std::size_t>(args->uav)];
+    const mission::UavSpec& uav = sc.uavs[static_cast<std::size_t>(args->uav)];
 
     mavlink::SimulatedVehicleOptions o;
     o.params = uav.vehicle;

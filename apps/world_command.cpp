@@ -69,13 +69,14 @@ void register_world_command(CLI::App& app) {
     const nodes::WorldNodeResult world =
         nodes::run_world_node(loaded.scenario, loaded.terrain, dds_options(args->dds), options);
     if (!args->quiet) std::cerr << '\n';
-    const sim::MissionMetrics& m = world.mission.metrics;
-    nlohmann::json metrics = sim::to_json(m);
+    const mission::MissionMetrics& m = world.mission.metrics;
+    nlohmann::json metrics = mission::to_json(m);
     metrics["distributed"] = to_json(world);
     const std::filesystem::path dir(args->out);
     io::write_file_atomically(dir / "metrics.json", metrics.dump(2) + "\n");
-    io::write_file_atomically(dir / "trajectories.csv",
-                              sim::trajectories_csv(world.mission.trajectories, loaded.scenario));
+    io::write_file_atomically(
+        dir / "trajectories.csv",
+        mission::trajectories_csv(world.mission.trajectories, loaded.scenario));
     std::cout << fmt::format(
         "world: {} in {:.1f} s simulated, {:.1f} s wall; min separation {:.1f} m, terrain "
         "collisions {}, threat intrusions {}, lost UAVs {}\n",

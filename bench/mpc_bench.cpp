@@ -4,17 +4,17 @@
 // QP's share and its iterations, and Ipopt's time on the same QPs as a ratio of one run.
 #include <benchmark/benchmark.h>
 
-#include "sim/mpc_benchmark.hpp"
+#include "benchmarks/mpc_benchmark.hpp"
 
 namespace {
 
 void BM_UavTrackerClosedLoop(benchmark::State& state) {
-  ridgeline::sim::MpcBenchmarkReport report;
+  ridgeline::benchmarks::MpcBenchmarkReport report;
   for (auto _ : state) {
-    ridgeline::sim::MpcBenchmarkOptions options;
+    ridgeline::benchmarks::MpcBenchmarkOptions options;
     options.steps = 3000;
     options.ipopt_every = 30;
-    report = ridgeline::sim::run_mpc_benchmark(options);
+    report = ridgeline::benchmarks::run_mpc_benchmark(options);
   }
   state.counters["step_median_us"] = report.step_us.median;
   state.counters["step_p99_us"] = report.step_us.p99;

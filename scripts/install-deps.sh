@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config
+  python3                  # scripts/check_layers.py (the layering test)
   libeigen3-dev            # linear algebra (vehicle, QP, MPC)
   coinor-libipopt-dev      # NLP solver: global planner, QP reference in tests
   libceres-dev             # nonlinear least squares: DEM peak fit

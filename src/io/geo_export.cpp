@@ -106,8 +106,9 @@ std::string kml_data(const std::vector<std::pair<std::string, std::string>>& fie
 
 }  // namespace
 
-MissionGeometry mission_from_plan_json(const json& plan, const std::string& source,
-                                       const std::optional<sim::GeodeticOrigin>& origin_override) {
+MissionGeometry mission_from_plan_json(
+    const json& plan, const std::string& source,
+    const std::optional<mission::GeodeticOrigin>& origin_override) {
   if (!plan.is_object()) throw InputError(source, "a plan must be a JSON object");
   MissionGeometry m;
   m.name = plan.contains("scenario") && plan["scenario"].is_string()
@@ -180,7 +181,7 @@ MissionGeometry mission_from_plan_json(const json& plan, const std::string& sour
     const json& targets = list(plan, "targets", source);
     for (std::size_t i = 0; i < targets.size(); ++i) {
       const std::string where = fmt::format("{}: targets[{}]", source, i);
-      sim::InspectionTarget t;
+      mission::InspectionTarget t;
       t.name = text(targets[i], "name", where);
       t.position_m = vec3(targets[i], "position_m", where);
       if (targets[i].contains("priority"))
@@ -207,8 +208,8 @@ MissionGeometry mission_from_plan_json(const json& plan, const std::string& sour
   return m;
 }
 
-MissionGeometry mission_from_flight(const sim::Scenario& scenario,
-                                    const std::vector<sim::TrajectoryRow>& rows,
+MissionGeometry mission_from_flight(const mission::Scenario& scenario,
+                                    const std::vector<mission::TrajectoryRow>& rows,
                                     double sample_period_s) {
   if (!scenario.origin) {
     throw InputError("origin",
@@ -223,12 +224,12 @@ MissionGeometry mission_from_flight(const sim::Scenario& scenario,
   m.threats = scenario.threats;
   m.paths.resize(scenario.uavs.size());
   std::vector<double> next_t(scenario.uavs.size(), -1e300);
-  std::vector<const sim::TrajectoryRow*> last(scenario.uavs.size(), nullptr);
+  std::vector<const mission::TrajectoryRow*> last(scenario.uavs.size(), nullptr);
   for (std::size_t i = 0; i < scenario.uavs.size(); ++i) {
     m.paths[i].name = scenario.uavs[i].name;
     m.paths[i].cruise_speed_m_s = scenario.uavs[i].vehicle.cruise_speed_m_s;
   }
-  for (const sim::TrajectoryRow& r : rows) {
+  for (const mission::TrajectoryRow& r : rows) {
     if (r.uav < 0 || static_cast<std::size_t>(r.uav) >= m.paths.size()) continue;
     const std::size_t i = static_cast<std::size_t>(r.uav);
     last[i] = &r;
@@ -260,7 +261,7 @@ std::string to_geojson(const MissionGeometry& m) {
                         {"properties", props},
                         {"geometry", {{"type", "LineString"}, {"coordinates", coords}}}});
   }
-  for (const sim::InspectionTarget& t : m.targets) {
+  for (const mission::InspectionTarget& t : m.targets) {
     features.push_back(
         {{"type", "Feature"},
          {"properties",
@@ -319,7 +320,7 @@ std::string to_kml(const MissionGeometry& m) {
         "<coordinates>{}</coordinates></LineString></Placemark>\n",
         escape_markup(p.name), kml_data(data), kml_coordinates(frame, p.points_m));
   }
-  for (const sim::InspectionTarget& t : m.targets) {
+  for (const mission::InspectionTarget& t : m.targets) {
     out += fmt::format(
         "<Placemark><name>{}</name>{}<Point><altitudeMode>absolute</altitudeMode>"
         "<coordinates>{}</coordinates></Point></Placemark>\n",
@@ -362,7 +363,7 @@ std::string to_csv(const MissionGeometry& m) {
           p.times_s.empty() ? std::nullopt : std::optional<double>(p.times_s[k]), p.points_m[k]);
     }
   }
-  for (const sim::InspectionTarget& t : m.targets)
+  for (const mission::InspectionTarget& t : m.targets)
     row("target", t.name, 0, std::nullopt, t.position_m);
   const double end = mission_end_s(m);
   for (const world::Threat& t : m.threats) {

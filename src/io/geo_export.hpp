@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "mission/scenario.hpp"
 #include "sim/mission.hpp"
-#include "sim/scenario.hpp"
 #include "world/threat.hpp"
 
 namespace ridgeline::io {
@@ -30,10 +30,10 @@ struct ExportPath {
 
 struct MissionGeometry {
   std::string name;
-  sim::GeodeticOrigin origin;
+  mission::GeodeticOrigin origin;
   std::string path_kind;  ///< "planned waypoints" or "flown track"
   std::vector<ExportPath> paths;
-  std::vector<sim::InspectionTarget> targets;
+  std::vector<mission::InspectionTarget> targets;
   std::vector<world::Threat> threats;
 };
 
@@ -42,13 +42,14 @@ struct MissionGeometry {
 /// `origin_override` when given, else the plan's frame.origin. Throws InputError naming
 /// `source` and the field when the plan has no origin and none is given (its positions cannot
 /// be placed on the Earth), or when a field is missing or malformed.
-MissionGeometry mission_from_plan_json(const nlohmann::json& plan, const std::string& source,
-                                       const std::optional<sim::GeodeticOrigin>& origin_override);
+MissionGeometry mission_from_plan_json(
+    const nlohmann::json& plan, const std::string& source,
+    const std::optional<mission::GeodeticOrigin>& origin_override);
 
 /// The flown tracks of a flight (one point every `sample_period_s` per UAV), with the
 /// scenario's targets and threats. Throws InputError when the scenario has no origin.
-MissionGeometry mission_from_flight(const sim::Scenario& scenario,
-                                    const std::vector<sim::TrajectoryRow>& rows,
+MissionGeometry mission_from_flight(const mission::Scenario& scenario,
+                                    const std::vector<mission::TrajectoryRow>& rows,
                                     double sample_period_s = 1.0);
 
 /// GeoJSON (RFC 7946) FeatureCollection: a LineString [lon, lat, alt AMSL] per UAV

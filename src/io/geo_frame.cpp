@@ -22,7 +22,7 @@ struct GeoFrame::Impl {
   }
 };
 
-GeoFrame::GeoFrame(const sim::GeodeticOrigin& origin)
+GeoFrame::GeoFrame(const mission::GeodeticOrigin& origin)
     : origin_(origin), impl_(std::make_unique<Impl>()) {
   // The transverse Mercator's series are accurate far beyond any mission area, but a frame
   // centred at a pole has no east and north.
@@ -92,7 +92,7 @@ GeoPoint GeoFrame::to_geodetic(const Vec3& local_m) const {
   return {proj_todeg(out.lp.phi), proj_todeg(out.lp.lam), local_m.z()};
 }
 
-sim::GeodeticOrigin parse_origin_text(const std::string& text, const std::string& field) {
+mission::GeodeticOrigin parse_origin_text(const std::string& text, const std::string& field) {
   std::vector<double> v;
   std::stringstream ss(text);
   std::string item;

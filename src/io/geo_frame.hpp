@@ -17,7 +17,7 @@
 #include <string>
 
 #include "core/types.hpp"
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
 
 namespace ridgeline::io {
 
@@ -35,7 +35,7 @@ class GeoFrame {
   /// Throws InputError (field `origin`) unless the latitude is in [-89, 89] degrees, the
   /// longitude in [-180, 180] and the altitude finite, or when PROJ cannot build the
   /// projection.
-  explicit GeoFrame(const sim::GeodeticOrigin& origin);
+  explicit GeoFrame(const mission::GeodeticOrigin& origin);
   ~GeoFrame();
   GeoFrame(GeoFrame&&) noexcept;
   GeoFrame& operator=(GeoFrame&&) noexcept;
@@ -48,19 +48,19 @@ class GeoFrame {
   /// The geodetic point of a local position; altitude = z.
   GeoPoint to_geodetic(const Vec3& local_m) const;
 
-  const sim::GeodeticOrigin& origin() const { return origin_; }
+  const mission::GeodeticOrigin& origin() const { return origin_; }
   /// The PROJ string of the local projection (usable as a GDAL/OGR CRS definition).
   const std::string& proj_definition() const { return definition_; }
 
  private:
   struct Impl;
-  sim::GeodeticOrigin origin_;
+  mission::GeodeticOrigin origin_;
   std::string definition_;
   std::unique_ptr<Impl> impl_;
 };
 
 /// "LAT,LON,ALT_AMSL" (degrees, degrees, metres), as command-line options give an origin.
 /// Throws InputError naming `field` unless it is three numbers; GeoFrame checks their ranges.
-sim::GeodeticOrigin parse_origin_text(const std::string& text, const std::string& field);
+mission::GeodeticOrigin parse_origin_text(const std::string& text, const std::string& field);
 
 }  // namespace ridgeline::io

@@ -8,7 +8,7 @@
 
 namespace ridgeline::io {
 
-nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenario& scenario) {
+nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const mission::Scenario& scenario) {
   nlohmann::json j;
   j["scenario"] = scenario.name;
   j["status"] = std::string(planning::to_string(plan.status));
@@ -88,7 +88,7 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
     j["frame"] = {{"origin", nullptr}, {"z", "metres in the terrain datum"}};
   }
   j["targets"] = nlohmann::json::array();
-  for (const sim::InspectionTarget& t : scenario.targets) {
+  for (const mission::InspectionTarget& t : scenario.targets) {
     j["targets"].push_back({{"name", t.name},
                             {"position_m", {t.position_m.x(), t.position_m.y(), t.position_m.z()}},
                             {"priority", t.priority},
@@ -125,7 +125,7 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
     }
     uj["length_m"] = u.timing.path_length_m;
     uj["duration_s"] = u.timing.duration_s;
-    for (const sim::UavSpec& spec : scenario.uavs) {
+    for (const mission::UavSpec& spec : scenario.uavs) {
       if (spec.name == u.name) uj["cruise_speed_m_s"] = spec.vehicle.cruise_speed_m_s;
     }
     uj["max_turn_rate_rad_s"] = u.timing.max_turn_rate_rad_s;
@@ -135,7 +135,7 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenari
   return j;
 }
 
-std::string plan_summary_text(const planning::GlobalPlan& plan, const sim::Scenario& scenario) {
+std::string plan_summary_text(const planning::GlobalPlan& plan, const mission::Scenario& scenario) {
   std::string out = fmt::format("{:<10} {:<24} {:>9} {:>9}\n", "uav", "targets", "length m",
                                 "time s");
   for (const planning::UavPlan& u : plan.uavs) {

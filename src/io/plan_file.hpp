@@ -15,15 +15,15 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "mission/scenario.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/scenario.hpp"
 
 namespace ridgeline::io {
 
-nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const sim::Scenario& scenario);
+nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const mission::Scenario& scenario);
 
 /// A few lines a person reads in seconds: per UAV its targets, length, duration and the
 /// validated minimum clearance and separation; the planning time.
-std::string plan_summary_text(const planning::GlobalPlan& plan, const sim::Scenario& scenario);
+std::string plan_summary_text(const planning::GlobalPlan& plan, const mission::Scenario& scenario);
 
 }  // namespace ridgeline::io

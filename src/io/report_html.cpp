@@ -164,12 +164,12 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
     throw InputError(
         "report.error_sample_spacing_m",
         fmt::format("{} must be a positive number of metres", options.error_sample_spacing_m));
-  const sim::Scenario& s = input.scenario;
+  const mission::Scenario& s = input.scenario;
 
   // Rows per UAV in time order.
-  std::vector<std::vector<const sim::TrajectoryRow*>> rows(s.uavs.size());
+  std::vector<std::vector<const mission::TrajectoryRow*>> rows(s.uavs.size());
   double t_end = 0.0;
-  for (const sim::TrajectoryRow& r : input.trajectories) {
+  for (const mission::TrajectoryRow& r : input.trajectories) {
     if (r.uav < 0 || static_cast<std::size_t>(r.uav) >= s.uavs.size())
       throw InputError("trajectories", fmt::format("a row at t = {} s names UAV index {}, but the "
                                                    "scenario has {} UAVs",
@@ -178,9 +178,10 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
     t_end = std::max(t_end, r.t_s);
   }
   for (auto& list : rows)
-    std::stable_sort(
-        list.begin(), list.end(),
-        [](const sim::TrajectoryRow* a, const sim::TrajectoryRow* b) { return a->t_s < b->t_s; });
+    std::stable_sort(list.begin(), list.end(),
+                     [](const mission::TrajectoryRow* a, const mission::TrajectoryRow* b) {
+                       return a->t_s < b->t_s;
+                     });
 
   // The slider's times: every sample period, and the last row's time so the end is shown.
   std::vector<double> times;
@@ -193,14 +194,14 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
 
   nlohmann::json uavs = nlohmann::json::array();
   for (std::size_t i = 0; i < s.uavs.size(); ++i) {
-    const std::vector<const sim::TrajectoryRow*>& list = rows[i];
+    const std::vector<const mission::TrajectoryRow*>& list = rows[i];
     std::array<nlohmann::json, 6> columns;  // x, y, z, ref_x, ref_y, ref_z at each time
     for (auto& c : columns) c = nlohmann::json::array();
     std::size_t next = 0;  // the UAV's state at time t is its last row at or before t
     for (const double t : times) {
       if (list.empty()) break;
       while (next + 1 < list.size() && list[next + 1]->t_s <= t + 1e-9) ++next;
-      const sim::TrajectoryRow& r = *list[next];
+      const mission::TrajectoryRow& r = *list[next];
       for (int a = 0; a < 3; ++a) {
         columns[static_cast<std::size_t>(a)].push_back(metres(r.position_m[a]));
         columns[static_cast<std::size_t>(a + 3)].push_back(metres(r.reference_m[a]));
@@ -248,7 +249,7 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
   }
 
   nlohmann::json targets = nlohmann::json::array();
-  for (const sim::InspectionTarget& t : s.targets)
+  for (const mission::InspectionTarget& t : s.targets)
     targets.push_back({{"name", t.name},
                        {"position_m", point(t.position_m)},
                        {"inspection_radius_m", t.inspection_radius_m}});
@@ -275,7 +276,7 @@ nlohmann::json mission_report_data(const MissionReportInput& input, const Report
           {"uavs", uavs},
           {"targets", targets},
           {"threats", threats},
-          {"metrics", sim::to_json(input.metrics)}};
+          {"metrics", mission::to_json(input.metrics)}};
 }
 
 std::string mission_report_html(const MissionReportInput& input, std::string_view plotly_js,

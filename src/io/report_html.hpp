@@ -22,9 +22,9 @@
 #include <string_view>
 #include <vector>
 
+#include "mission/mission_metrics.hpp"
+#include "mission/scenario.hpp"
 #include "sim/mission.hpp"
-#include "sim/mission_metrics.hpp"
-#include "sim/scenario.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::io {
@@ -42,10 +42,10 @@ struct ReportOptions {
 /// What a report is made of. `trajectories` are the rows of trajectories.csv (any order;
 /// `uav` indexes scenario.uavs).
 struct MissionReportInput {
-  const sim::Scenario& scenario;
+  const mission::Scenario& scenario;
   const world::Terrain& terrain;
-  const sim::MissionMetrics& metrics;
-  const std::vector<sim::TrajectoryRow>& trajectories;
+  const mission::MissionMetrics& metrics;
+  const std::vector<mission::TrajectoryRow>& trajectories;
 };
 
 /// The report's data block (what the page's script draws): {"title", "area", "terrain": {x, y,

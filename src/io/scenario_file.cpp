@@ -89,24 +89,24 @@ world::PeakTerrainConfig parse_peak_terrain(YamlMap& m) {
   return config;
 }
 
-sim::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth);
+mission::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth);
 
 // `terrain: {include: FILE}`: FILE holds a top-level `terrain:` block (as `ridgeline fit-dem`
 // writes it, with an informational `fit_report:` beside it).
-sim::TerrainSource parse_terrain_include(const YamlValue& include, const fs::path& base_dir,
-                                         int include_depth) {
+mission::TerrainSource parse_terrain_include(const YamlValue& include, const fs::path& base_dir,
+                                             int include_depth) {
   if (include_depth > 4) throw InputError(include.path(), "includes nest too deeply (a cycle?)");
   const fs::path path = base_dir / include.as_string();
   const std::string text = read_text_file(path, include.path());
   YamlMap top = YamlValue(parse_yaml(text, path.string()), path.string()).as_map();
   YamlMap terrain = top.required("terrain").as_map();
   // The report is informational but for the frame the fit was made in (fit-dem --origin).
-  std::optional<sim::GeodeticOrigin> fit_origin;
+  std::optional<mission::GeodeticOrigin> fit_origin;
   const bool has_report = top.has("fit_report");
   if (auto report = top.optional("fit_report")) {
     if (report->node().IsMap() && report->node()["origin"]) {
       YamlMap o = YamlValue(report->node()["origin"], report->path() + ".origin").as_map();
-      sim::GeodeticOrigin g;
+      mission::GeodeticOrigin g;
       g.lat_deg = o.required("lat_deg").as_double();
       g.lon_deg = o.required("lon_deg").as_double();
       g.alt_amsl_m = o.required("alt_amsl_m").as_double();
@@ -115,7 +115,7 @@ sim::TerrainSource parse_terrain_include(const YamlValue& include, const fs::pat
     }
   }
   top.finish();
-  sim::TerrainSource source = parse_terrain(terrain, path.parent_path(), include_depth + 1);
+  mission::TerrainSource source = parse_terrain(terrain, path.parent_path(), include_depth + 1);
   if (source.included_from.empty()) {
     source.included_from = path.string();
     source.included_fit_report = has_report;
@@ -124,27 +124,27 @@ sim::TerrainSource parse_terrain_include(const YamlValue& include, const fs::pat
   return source;
 }
 
-sim::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth) {
+mission::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int include_depth) {
   const int sources = int(m.has("peaks")) + int(m.has("dem")) + int(m.has("include"));
   if (sources != 1) {
     throw InputError(m.path(), "give exactly one of 'peaks' (inline peaks), 'dem' (a raster "
                                "file) or 'include' (a terrain file written by fit-dem)");
   }
   if (auto include = m.optional("include")) {
-    sim::TerrainSource source = parse_terrain_include(*include, base_dir, include_depth);
+    mission::TerrainSource source = parse_terrain_include(*include, base_dir, include_depth);
     m.finish();
     return source;
   }
-  sim::TerrainSource source;
+  mission::TerrainSource source;
   if (auto dem_value = m.optional("dem")) {
     YamlMap dem = dem_value->as_map();
-    source.kind = sim::TerrainSource::Kind::kDem;
+    source.kind = mission::TerrainSource::Kind::kDem;
     source.dem_path = (base_dir / dem.required("path").as_string()).string();
     const std::string model = dem.get_string("model", "raster");
     if (model == "raster") {
-      source.dem_model = sim::TerrainSource::DemModel::kRaster;
+      source.dem_model = mission::TerrainSource::DemModel::kRaster;
     } else if (model == "fitted") {
-      source.dem_model = sim::TerrainSource::DemModel::kFitted;
+      source.dem_model = mission::TerrainSource::DemModel::kFitted;
     } else {
       throw InputError(dem.path() + ".model", fmt::format("must be 'raster' or 'fitted', got '{}'", model));
     }
@@ -156,7 +156,7 @@ sim::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int inclu
     m.finish();
     return source;
   }
-  source.kind = sim::TerrainSource::Kind::kPeaks;
+  source.kind = mission::TerrainSource::Kind::kPeaks;
   source.peaks = parse_peak_terrain(m);
   m.finish();
   return source;
@@ -174,10 +174,10 @@ void parse_vehicle(YamlMap& m, vehicle::VehicleParams& v) {
   m.finish();
 }
 
-sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defaults,
-                       const GeoFrame* frame) {
+mission::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defaults,
+                           const GeoFrame* frame) {
   YamlMap m = item.as_map();
-  sim::UavSpec uav;
+  mission::UavSpec uav;
   uav.name = m.required("name").as_string();
   uav.vehicle = defaults;
   if (auto v = m.optional("vehicle")) {
@@ -194,9 +194,9 @@ sim::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& defa
   return uav;
 }
 
-sim::InspectionTarget parse_target(const YamlValue& item, const GeoFrame* frame) {
+mission::InspectionTarget parse_target(const YamlValue& item, const GeoFrame* frame) {
   YamlMap m = item.as_map();
-  sim::InspectionTarget t;
+  mission::InspectionTarget t;
   t.name = m.required("name").as_string();
   t.position_m = parse_position(m, "position_m", "position_geo", frame);
   t.priority = static_cast<int>(m.get_int("priority", t.priority));
@@ -233,7 +233,7 @@ void parse_wind(YamlMap& m, world::WindConfig& w, std::uint64_t scenario_seed) {
   m.finish();
 }
 
-void parse_mpc(YamlMap& m, sim::MpcConfig& c) {
+void parse_mpc(YamlMap& m, mission::MpcConfig& c) {
   c.control_period_s = m.get_double("control_period_s", c.control_period_s);
   c.prediction_step_s = m.get_double("prediction_step_s", c.prediction_step_s);
   c.horizon_steps = static_cast<int>(m.get_int("horizon_steps", c.horizon_steps));
@@ -245,7 +245,7 @@ void parse_mpc(YamlMap& m, sim::MpcConfig& c) {
   m.finish();
 }
 
-void parse_planner(YamlMap& m, sim::PlannerConfig& p) {
+void parse_planner(YamlMap& m, mission::PlannerConfig& p) {
   p.waypoints_per_uav = static_cast<int>(m.get_int("waypoints_per_uav", p.waypoints_per_uav));
   p.max_turn_angle_rad = deg_to_rad(m.get_double("max_turn_angle_deg", rad_to_deg(p.max_turn_angle_rad)));
   p.pitch_penalty = m.get_double("pitch_penalty", p.pitch_penalty);
@@ -274,7 +274,7 @@ void parse_planner(YamlMap& m, sim::PlannerConfig& p) {
   m.finish();
 }
 
-void parse_simulation(YamlMap& m, sim::SimulationConfig& s) {
+void parse_simulation(YamlMap& m, mission::SimulationConfig& s) {
   s.duration_s = m.get_double("duration_s", s.duration_s);
   s.truth_rate_hz = m.get_double("truth_rate_hz", s.truth_rate_hz);
   s.message_rate_hz = m.get_double("message_rate_hz", s.message_rate_hz);
@@ -305,15 +305,15 @@ InvalidScenario::InvalidScenario(std::vector<InputError> problems)
 
 std::string_view default_scenario_yaml() { return kDefaultScenarioYaml; }
 
-sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& source,
-                             const fs::path& base_dir) {
+mission::Scenario parse_scenario(const std::string& yaml_text, const std::string& source,
+                                 const fs::path& base_dir) {
   const YAML::Node root = parse_yaml(yaml_text, source);
   if (!root.IsMap()) {
     throw InputError(source, "a scenario must be a YAML mapping with keys such as area, "
                              "terrain, uavs, targets");
   }
   YamlMap top(root, "");
-  sim::Scenario s;
+  mission::Scenario s;
   s.name = top.get_string("name", "unnamed");
   const long long seed = top.get_int("seed", 1);
   if (seed < 0) throw InputError("seed", "must not be negative");
@@ -323,7 +323,7 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
   std::optional<GeoFrame> frame;
   if (auto origin = top.optional("origin")) {
     YamlMap m = origin->as_map();
-    sim::GeodeticOrigin o;
+    mission::GeodeticOrigin o;
     o.lat_deg = m.required("lat_deg").as_double();
     o.lon_deg = m.required("lon_deg").as_double();
     o.alt_amsl_m = m.required("alt_amsl_m").as_double();
@@ -353,7 +353,7 @@ sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& so
       }
       s.safety.altitude.min_m += s.origin->alt_amsl_m;
       s.safety.altitude.max_m += s.origin->alt_amsl_m;
-      s.altitude_stated_reference = sim::AltitudeReference::kHome;
+      s.altitude_stated_reference = mission::AltitudeReference::kHome;
     } else if (reference != "datum") {
       throw InputError("altitude.reference",
                        fmt::format("must be 'datum' (the frame's z: above mean sea level with "
@@ -446,7 +446,7 @@ LoadedScenario load_scenario(const std::string& yaml_text, const std::string& so
   loaded.scenario = parse_scenario(yaml_text, source, base_dir);
   loaded.terrain =
       build_terrain(loaded.scenario.terrain, loaded.scenario.origin, &loaded.scenario.area);
-  std::vector<InputError> problems = sim::validate(loaded.scenario, *loaded.terrain);
+  std::vector<InputError> problems = mission::validate(loaded.scenario, *loaded.terrain);
   if (!problems.empty()) throw InvalidScenario(std::move(problems));
   return loaded;
 }

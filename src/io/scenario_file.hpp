@@ -13,14 +13,14 @@
 #include <vector>
 
 #include "core/error.hpp"
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::io {
 
 /// A parsed, validated scenario and the terrain it describes.
 struct LoadedScenario {
-  sim::Scenario scenario;
+  mission::Scenario scenario;
   std::shared_ptr<const world::Terrain> terrain;
   std::string source;  ///< file path, or "<default>"
 };
@@ -41,17 +41,17 @@ std::string_view default_scenario_yaml();
 
 /// Parses scenario YAML into values, checking syntax, types, finiteness and keys (no
 /// terrain-dependent checks). Relative file paths (DEM, include) resolve against base_dir.
-sim::Scenario parse_scenario(const std::string& yaml_text, const std::string& source,
-                             const std::filesystem::path& base_dir);
+mission::Scenario parse_scenario(const std::string& yaml_text, const std::string& source,
+                                 const std::filesystem::path& base_dir);
 
 /// Builds the terrain a scenario names (reading and possibly fitting its DEM). With a geodetic
 /// origin a DEM in any CRS is warped into the origin's local frame (io/geo_frame.hpp);
 /// without one, a DEM in degrees is an error. With `area`, a DEM that does not cover it is an
 /// error naming `area` (heights beyond a DEM would be invented).
 std::shared_ptr<const world::Terrain> build_terrain(
-    const sim::TerrainSource& source,
-    const std::optional<sim::GeodeticOrigin>& origin = std::nullopt,
-    const sim::Area* area = nullptr);
+    const mission::TerrainSource& source,
+    const std::optional<mission::GeodeticOrigin>& origin = std::nullopt,
+    const mission::Area* area = nullptr);
 
 /// Parses, builds the terrain and validates. Throws InputError (or InvalidScenario).
 LoadedScenario load_scenario(const std::string& yaml_text, const std::string& source,

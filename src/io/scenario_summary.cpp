@@ -11,7 +11,7 @@ namespace {
 nlohmann::json vec3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 // Terrain relief over the area on a coarse grid (for a summary, not for safety checks).
-std::pair<double, double> terrain_range(const world::Terrain& terrain, const sim::Area& area) {
+std::pair<double, double> terrain_range(const world::Terrain& terrain, const mission::Area& area) {
   constexpr int kSamples = 101;
   double lo = std::numeric_limits<double>::infinity();
   double hi = -lo;
@@ -30,7 +30,7 @@ std::pair<double, double> terrain_range(const world::Terrain& terrain, const sim
 }  // namespace
 
 nlohmann::json summarize(const LoadedScenario& loaded) {
-  const sim::Scenario& s = loaded.scenario;
+  const mission::Scenario& s = loaded.scenario;
   const world::Terrain& terrain = *loaded.terrain;
   nlohmann::json j;
   j["scenario"] = s.name;
@@ -39,20 +39,20 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
   j["area_m"] = {{"x", {s.area.x_min_m, s.area.x_max_m}}, {"y", {s.area.y_min_m, s.area.y_max_m}}};
   const auto [lo, hi] = terrain_range(terrain, s.area);
   std::string kind = s.terrain.included_from.empty() ? "peaks" : "peaks from " + s.terrain.included_from;
-  if (s.terrain.kind == sim::TerrainSource::Kind::kDem) {
-    kind = s.terrain.dem_model == sim::TerrainSource::DemModel::kRaster ? "dem raster"
-                                                                         : "dem fitted peaks";
+  if (s.terrain.kind == mission::TerrainSource::Kind::kDem) {
+    kind = s.terrain.dem_model == mission::TerrainSource::DemModel::kRaster ? "dem raster"
+                                                                            : "dem fitted peaks";
   }
   j["terrain"] = {{"kind", kind},
                   {"min_height_m", lo},
                   {"max_height_m", hi},
                   {"model_error_m", terrain.model_error_m()}};
-  if (s.terrain.kind == sim::TerrainSource::Kind::kPeaks)
+  if (s.terrain.kind == mission::TerrainSource::Kind::kPeaks)
     j["terrain"]["peaks"] = s.terrain.peaks.peaks.size();
   else
     j["terrain"]["dem"] = s.terrain.dem_path;
 
-  for (const sim::UavSpec& u : s.uavs) {
+  for (const mission::UavSpec& u : s.uavs) {
     const double ground = terrain.height(u.start_position_m.x(), u.start_position_m.y());
     j["uavs"].push_back({{"name", u.name},
                          {"start_m", vec3(u.start_position_m)},
@@ -62,7 +62,7 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
                          {"min_turn_radius_m", u.vehicle.min_turn_radius_m},
                          {"sensor_range_m", u.sensor_range_m}});
   }
-  for (const sim::InspectionTarget& t : s.targets) {
+  for (const mission::InspectionTarget& t : s.targets) {
     const double ground = terrain.height(t.position_m.x(), t.position_m.y());
     j["targets"].push_back({{"name", t.name},
                             {"position_m", vec3(t.position_m)},
@@ -94,8 +94,9 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
           {"lon_deg", s.origin->lon_deg},
           {"alt_amsl_m", s.origin->alt_amsl_m}}},
         {"z", "metres above mean sea level"},
-        {"altitude_stated_above",
-         s.altitude_stated_reference == sim::AltitudeReference::kHome ? "home" : "mean sea level"}};
+        {"altitude_stated_above", s.altitude_stated_reference == mission::AltitudeReference::kHome
+                                      ? "home"
+                                      : "mean sea level"}};
   } else {
     j["frame"] = {{"origin", nullptr}, {"z", "metres in the terrain datum"}};
   }

@@ -8,7 +8,7 @@ namespace ridgeline::io {
 
 std::string terrain_fit_yaml(const world::TerrainFitResult& fit, const std::string& dem_path,
                              const world::RasterGrid& grid,
-                             const std::optional<sim::GeodeticOrigin>& origin) {
+                             const std::optional<mission::GeodeticOrigin>& origin) {
   const world::PeakTerrainConfig& t = fit.terrain;
   YAML::Emitter out;
   // 10 significant digits: millimetres for projected coordinates up to 10^7 m, and no
@@ -54,7 +54,7 @@ std::string terrain_fit_yaml(const world::TerrainFitResult& fit, const std::stri
 
 void write_terrain_fit_yaml(const std::filesystem::path& path, const world::TerrainFitResult& fit,
                             const std::string& dem_path, const world::RasterGrid& grid,
-                            const std::optional<sim::GeodeticOrigin>& origin) {
+                            const std::optional<mission::GeodeticOrigin>& origin) {
   write_file_atomically(path, terrain_fit_yaml(fit, dem_path, grid, origin));
 }
 

@@ -19,7 +19,7 @@
 #include <optional>
 #include <string>
 
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
 #include "world/raster_grid.hpp"
 #include "world/terrain_fit.hpp"
 
@@ -28,12 +28,12 @@ namespace ridgeline::io {
 /// The YAML text of a fit of the DEM at `dem_path` (its raster `grid` gives cols and rows).
 std::string terrain_fit_yaml(const world::TerrainFitResult& fit, const std::string& dem_path,
                              const world::RasterGrid& grid,
-                             const std::optional<sim::GeodeticOrigin>& origin = std::nullopt);
+                             const std::optional<mission::GeodeticOrigin>& origin = std::nullopt);
 
 /// Writes terrain_fit_yaml atomically (FILE.tmp, then rename): on error no partial file is
 /// left. Throws InputError naming `path` when it cannot be written.
 void write_terrain_fit_yaml(const std::filesystem::path& path, const world::TerrainFitResult& fit,
                             const std::string& dem_path, const world::RasterGrid& grid,
-                            const std::optional<sim::GeodeticOrigin>& origin = std::nullopt);
+                            const std::optional<mission::GeodeticOrigin>& origin = std::nullopt);
 
 }  // namespace ridgeline::io

@@ -16,7 +16,7 @@ namespace {
 // The DEM must cover the operating area: beyond its cells the raster clamps and a fitted
 // field extrapolates, so any height there would be invented. Half a cell of slack is the
 // raster's own cell area (raster_grid.hpp).
-void check_area_inside(const world::RasterGrid& grid, const sim::Area& area,
+void check_area_inside(const world::RasterGrid& grid, const mission::Area& area,
                        const std::string& dem_path) {
   const double west = grid.origin_x_m - 0.5 * grid.cell_x_m;
   const double south = grid.origin_y_m - 0.5 * grid.cell_y_m;
@@ -38,9 +38,9 @@ void check_area_inside(const world::RasterGrid& grid, const sim::Area& area,
 }  // namespace
 
 std::shared_ptr<const world::Terrain> build_terrain(
-    const sim::TerrainSource& source, const std::optional<sim::GeodeticOrigin>& origin,
-    const sim::Area* area) {
-  if (source.kind == sim::TerrainSource::Kind::kPeaks)
+    const mission::TerrainSource& source, const std::optional<mission::GeodeticOrigin>& origin,
+    const mission::Area* area) {
+  if (source.kind == mission::TerrainSource::Kind::kPeaks)
     return std::make_shared<world::PeakTerrain>(source.peaks, "terrain");
 
   world::RasterGrid grid;
@@ -57,7 +57,7 @@ std::shared_ptr<const world::Terrain> build_terrain(
     throw InputError("terrain.dem.path", e.what());
   }
   if (area != nullptr) check_area_inside(grid, *area, source.dem_path);
-  if (source.dem_model == sim::TerrainSource::DemModel::kRaster)
+  if (source.dem_model == mission::TerrainSource::DemModel::kRaster)
     return std::make_shared<world::RasterTerrain>(std::move(grid), 0.0, "terrain.dem.path");
 
   world::TerrainFitOptions options;

@@ -2,7 +2,7 @@
 // issue 11): one UAV flies to one target over terrain, through sudden moving threats, in
 // wind. It is built on the project's own models, not a copy of them: the truth dynamics are
 // vehicle::rk4_step with the truth's lags (time_constant_scale × the controller's τ, as
-// sim::TruthWorld does), the wind is world::WindField read through a noisy
+// mission::TruthWorld does), the wind is world::WindField read through a noisy
 // world::WindSensor, the terrain a world::PeakTerrain drawn by world::random_peaks, the
 // threats world::Threat spheres (eq. 13) sensed within the sensor range.
 //
@@ -171,7 +171,7 @@ struct EnvironmentOptions {
   EpisodeRandomization randomization;
   vehicle::VehicleParams vehicle;
   RewardWeights reward;
-  double truth_time_constant_scale = 1.2;  ///< as sim::SimulationConfig
+  double truth_time_constant_scale = 1.2;  ///< as mission::SimulationConfig
   double position_noise_m = 0.1;
   double control_period_s = 0.02;
   double truth_step_s = 0.01;

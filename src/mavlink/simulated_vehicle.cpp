@@ -55,7 +55,7 @@ Heartbeat SimulatedVehicle::heartbeat() const {
 void SimulatedVehicle::integrate_to(double t_s) {
   while (t_ < t_s) {
     const double dt = std::min(o_.integration_step_s, t_s - t_);
-    // Sub-nanosecond remainders come from floating-point time sums (as in sim::TruthWorld).
+    // Sub-nanosecond remainders come from floating-point time sums (as in mission::TruthWorld).
     if (dt < 1e-9) {
       t_ = t_s;
       break;
@@ -102,7 +102,7 @@ void SimulatedVehicle::handle_setpoint(const SetPositionTargetLocalNed& sp, doub
   }
   ++stats_.setpoints;
   if (holding_) {
-    // Leaving a hold at the commanded speed (sim::TruthWorld::release).
+    // Leaving a hold at the commanded speed (mission::TruthWorld::release).
     holding_ = false;
     state_[vehicle::kV] = (*c.command)[vehicle::kSpeedCmd];
     state_[vehicle::kOmega] = state_[vehicle::kW] = 0.0;

@@ -9,9 +9,9 @@
 //  - LOCAL_POSITION_NED and ATTITUDE every report_period_s (50 Hz);
 //  - COMMAND_LONG MAV_CMD_COMPONENT_ARM_DISARM (param1 1 arms, 0 disarms) and MAV_CMD_DO_SET_MODE
 //    (param1 with CUSTOM_MODE_ENABLED, param2 = main mode 6) to enter offboard; a change of
-//    arming or mode is announced by a HEARTBEAT with the next report (there is no COMMAND_ACK). Like PX4, it
-//    refuses offboard unless setpoints are streaming (one within setpoint_timeout_s), and
-//    leaves offboard (and holds) when they stop for longer than that;
+//    arming or mode is announced by a HEARTBEAT with the next report (there is no COMMAND_ACK).
+//    Like PX4, it refuses offboard unless setpoints are streaming (one within setpoint_timeout_s),
+//    and leaves offboard (and holds) when they stop for longer than that;
 //  - SET_POSITION_TARGET_LOCAL_NED: the command u = [v_c, ω_c, w_c] (ned_frame.hpp); a
 //    setpoint it cannot fly is counted with its reason, never flown.
 //  - a position setpoint (kTypeMaskPositionHold) within hold_tolerance_m of the vehicle makes
@@ -19,7 +19,7 @@
 //    the next velocity setpoint releases it at the commanded speed.
 // While not armed and in offboard it hovers where it is (v = ω = w = 0, heading kept).
 // With a wind field it drifts with the wind W(p, t) of the field at its time (eq. 1, sampled at
-// each RK4 step's start, as sim::TruthWorld does) and reports its ground velocity.
+// each RK4 step's start, as mission::TruthWorld does) and reports its ground velocity.
 // Time is whatever the caller says (seconds since start), so it runs in lock step in tests
 // and on the wall clock in `ridgeline vehicle-sim`.
 //
@@ -56,7 +56,7 @@ struct SimulatedVehicleOptions {
   /// mission's truth); none: still air.
   std::optional<world::WindConfig> wind;
   /// Horizontal speed (m/s) along its heading when offboard starts: a UAV already at cruise
-  /// when the mission starts, as sim::TruthWorld starts it (hover lies outside the motion
+  /// when the mission starts, as mission::TruthWorld starts it (hover lies outside the motion
   /// model's speed band, eq. 2). 0: it leaves the hover at rest.
   double offboard_entry_speed_m_s = 0.0;
   /// The home position's altitude in the initial state's z (ned_frame.hpp): reports and

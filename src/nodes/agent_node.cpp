@@ -7,7 +7,7 @@
 #include <thread>
 
 #include "core/error.hpp"
-#include "sim/mission.hpp"
+#include "mission/stage_inputs.hpp"
 #include "swarm/agent.hpp"
 #include "transport_dds/dds_transport.hpp"
 #include "transport_dds/plan_link.hpp"
@@ -22,20 +22,20 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-std::unique_ptr<swarm::Agent> make_agent(const sim::Scenario& scenario, int id,
+std::unique_ptr<swarm::Agent> make_agent(const mission::Scenario& scenario, int id,
                                          const transport_dds::PlanMessage& plan,
                                          std::shared_ptr<const world::Terrain> terrain) {
   planning::UavPlan up;
   up.name = scenario.uavs[static_cast<std::size_t>(id)].name;
   up.targets = plan.target_ids;
   auto reference = std::make_shared<const mpc::SampledReference>(plan.times_s, plan.points);
-  return std::make_unique<swarm::Agent>(sim::make_agent_options(scenario, id, up), scenario.safety,
-                                        std::move(reference), std::move(terrain));
+  return std::make_unique<swarm::Agent>(mission::make_agent_options(scenario, id, up),
+                                        scenario.safety, std::move(reference), std::move(terrain));
 }
 
 }  // namespace
 
-AgentNodeResult run_agent_node(const sim::Scenario& scenario,
+AgentNodeResult run_agent_node(const mission::Scenario& scenario,
                                std::shared_ptr<const world::Terrain> terrain,
                                const transport_dds::DdsOptions& dds,
                                const AgentNodeOptions& options) {
@@ -208,6 +208,7 @@ AgentNodeResult run_agent_node(const sim::Scenario& scenario,
     a.has_tracker = step.tracker != nullptr;
     if (step.tracker != nullptr) {
       a.mpc_step_us = step.tracker->step_time_us;
+      a.mpc_step_cpu_us = step.tracker->step_cpu_time_us;
       a.qp_iterations = step.tracker->qp_iterations;
     }
     a.max_slack_m = step.max_slack_m;

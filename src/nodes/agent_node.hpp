@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
 #include "swarm/transport.hpp"
 #include "transport_dds/dds_participant.hpp"
 #include "world/terrain.hpp"
@@ -43,7 +43,7 @@ struct AgentNodeResult {
 
 /// Throws InputError for an id outside the scenario's UAVs, std::runtime_error when no plan
 /// arrives in time.
-AgentNodeResult run_agent_node(const sim::Scenario& scenario,
+AgentNodeResult run_agent_node(const mission::Scenario& scenario,
                                std::shared_ptr<const world::Terrain> terrain,
                                const transport_dds::DdsOptions& dds,
                                const AgentNodeOptions& options);

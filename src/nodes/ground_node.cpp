@@ -8,7 +8,7 @@
 #include <thread>
 
 #include "core/error.hpp"
-#include "sim/mission_problem.hpp"
+#include "mission/stage_inputs.hpp"
 #include "transport_dds/dds_transport.hpp"
 #include "transport_dds/plan_link.hpp"
 #include "transport_dds/sim_link.hpp"
@@ -49,7 +49,7 @@ transport_dds::PlanMessage plan_message(int uav, const planning::UavPlan& up, do
 
 }  // namespace
 
-GroundNodeResult run_ground_node(const sim::Scenario& scenario,
+GroundNodeResult run_ground_node(const mission::Scenario& scenario,
                                  std::shared_ptr<const world::Terrain> terrain,
                                  const planning::GlobalPlan& plan,
                                  const transport_dds::DdsOptions& dds,
@@ -70,7 +70,7 @@ GroundNodeResult run_ground_node(const sim::Scenario& scenario,
   // Version 0: the global plan.
   std::vector<transport_dds::PlanMessage> current(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    const sim::UavSpec& u = scenario.uavs[static_cast<std::size_t>(i)];
+    const mission::UavSpec& u = scenario.uavs[static_cast<std::size_t>(i)];
     const auto it = std::find_if(plan.uavs.begin(), plan.uavs.end(),
                                  [&](const planning::UavPlan& up) { return up.name == u.name; });
     transport_dds::PlanMessage p;
@@ -179,7 +179,7 @@ GroundNodeResult run_ground_node(const sim::Scenario& scenario,
       r.status = "nothing to re-allocate";
       continue;
     }
-    planning::GlobalPlanningProblem problem = sim::make_planning_problem(scenario, terrain);
+    planning::GlobalPlanningProblem problem = mission::make_planning_problem(scenario, terrain);
     std::vector<int> survivors;
     problem.uavs.clear();
     for (int i = 0; i < n; ++i) {
@@ -197,7 +197,7 @@ GroundNodeResult run_ground_node(const sim::Scenario& scenario,
     std::vector<planning::AllocationTarget> all_targets = problem.targets;
     problem.targets.clear();
     for (const int k : open) problem.targets.push_back(all_targets[static_cast<std::size_t>(k)]);
-    const planning::GlobalPlannerOptions po = sim::make_planner_options(scenario);
+    const planning::GlobalPlannerOptions po = mission::make_planner_options(scenario);
     const planning::GlobalPlan replan =
         survivors.empty() ? planning::GlobalPlan{} : planning::plan_mission(problem, po);
     r.plan_time_s = seconds_since(plan_start);

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "mission/scenario.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/scenario.hpp"
 #include "transport_dds/dds_participant.hpp"
 #include "world/terrain.hpp"
 
@@ -46,7 +46,7 @@ struct GroundNodeResult {
 
 /// The plan messages (version 0) of a global plan: UAVs without a plan entry hold at their
 /// start.
-GroundNodeResult run_ground_node(const sim::Scenario& scenario,
+GroundNodeResult run_ground_node(const mission::Scenario& scenario,
                                  std::shared_ptr<const world::Terrain> terrain,
                                  const planning::GlobalPlan& plan,
                                  const transport_dds::DdsOptions& dds,

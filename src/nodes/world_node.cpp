@@ -8,9 +8,9 @@
 #include <thread>
 
 #include "core/error.hpp"
-#include "nodes/mission_recorder.hpp"
-#include "sim/statistics.hpp"
-#include "sim/truth_world.hpp"
+#include "mission/flight_recorder.hpp"
+#include "mission/statistics.hpp"
+#include "mission/truth_world.hpp"
 #include "transport_dds/sim_link.hpp"
 
 namespace ridgeline::nodes {
@@ -21,6 +21,20 @@ using transport_dds::CommandReport;
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// An agent's answer as the flight recorder takes it (the same fields as the in-process step).
+mission::ControlReport control_report(const CommandReport& a) {
+  mission::ControlReport r;
+  r.finished = a.mode == swarm::AgentMode::kFinished;
+  r.reference_m = a.reference_m;
+  r.command = a.command;
+  r.has_tracker = a.has_tracker;
+  r.mpc_step_us = a.mpc_step_us;
+  r.mpc_step_cpu_us = a.mpc_step_cpu_us;
+  r.qp_iterations = a.qp_iterations;
+  r.max_slack_m = a.max_slack_m;
+  return r;
 }
 
 struct Slot {
@@ -40,7 +54,7 @@ struct Slot {
 
 }  // namespace
 
-WorldNodeResult run_world_node(const sim::Scenario& scenario,
+WorldNodeResult run_world_node(const mission::Scenario& scenario,
                                std::shared_ptr<const world::Terrain> terrain,
                                const transport_dds::DdsOptions& dds,
                                const WorldNodeOptions& options) {
@@ -53,8 +67,8 @@ WorldNodeResult run_world_node(const sim::Scenario& scenario,
   const auto wall_start = Clock::now();
   auto participant = std::make_shared<transport_dds::DdsParticipant>(dds);
   transport_dds::SimLink link(participant, n, transport_dds::world_role());
-  sim::TruthWorld world(scenario, terrain);
-  MissionRecorder recorder(scenario, terrain, world, options.record_trajectories);
+  mission::TruthWorld world(scenario, terrain);
+  mission::FlightRecorder recorder(scenario, *terrain, world, options.record_trajectories);
   std::vector<Slot> slots(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) slots[static_cast<std::size_t>(i)].last.uav = i;
   WorldNodeResult result;
@@ -255,7 +269,7 @@ WorldNodeResult run_world_node(const sim::Scenario& scenario,
     for (int i = 0; i < n; ++i) {
       const Slot& s = slots[static_cast<std::size_t>(i)];
       if (s.answered)
-        recorder.answered(i, t, s.last, world);
+        recorder.control_step(i, t, world, control_report(s.last));
       else
         recorder.unanswered(i, t, world);
     }
@@ -284,13 +298,19 @@ WorldNodeResult run_world_node(const sim::Scenario& scenario,
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 
-  std::vector<CommandReport> last;
-  std::vector<double> finish_times;
+  // A UAV whose agent was lost counts as not finished.
+  std::vector<mission::UavOutcome> outcomes;
   for (const Slot& s : slots) {
-    last.push_back(s.last);
-    finish_times.push_back(s.finish_time_s);
+    mission::UavOutcome o;
+    o.targets_assigned = s.last.targets_assigned;
+    o.targets_inspected = s.last.targets_inspected;
+    o.missed_targets = s.last.missed_targets;
+    o.finished = s.finish_time_s >= 0.0;
+    o.finish_time_s = s.finish_time_s;
+    o.counters = s.last.counters;
+    outcomes.push_back(std::move(o));
   }
-  result.mission = recorder.finish(t, last, finish_times);
+  result.mission = recorder.finish(t, outcomes);
   result.wall_time_s = seconds_since(wall_start);
   result.mission.metrics.wall_time_s = result.wall_time_s;
   for (int i = 0; i < n; ++i) {
@@ -311,11 +331,11 @@ WorldNodeResult run_world_node(const sim::Scenario& scenario,
       d.loop_period_jitter_s = std::sqrt(var / static_cast<double>(s.periods.size()));
       d.loop_period_max_dev_s = max_dev;
     }
-    const sim::Percentiles c = sim::percentiles(s.computes);
+    const mission::Percentiles c = mission::percentiles(s.computes);
     d.compute_p50_s = c.median;
     d.compute_p99_s = c.p99;
     d.compute_max_s = c.max;
-    d.latency_p99_s = sim::percentiles(s.latencies).p99;
+    d.latency_p99_s = mission::percentiles(s.latencies).p99;
     d.missed_deadlines = s.missed;
     d.turn_setpoints_limited = s.turn_limited;
     d.started_s = s.started_s;

@@ -2,7 +2,7 @@
 // It owns the truth (dynamics in the wind, threats, sensors), keeps the shared clock and, every
 // control period (50 Hz), publishes each UAV's measurement (noisy state fix, anemometer,
 // threats in sensor range); it applies the agents' answers (commands) to the truth and
-// measures the mission (MissionRecorder, the same metrics as `ridgeline run`).
+// measures the mission (mission::FlightRecorder, the same recorder as `ridgeline run`).
 //
 // Lock-step (default): tick k+1 starts when every started, live agent has answered tick k —
 // the mission runs as fast as the agents allow and each command is applied at the instant of
@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "sim/mission.hpp"
-#include "sim/scenario.hpp"
+#include "mission/mission_metrics.hpp"
+#include "mission/scenario.hpp"
 #include "transport_dds/dds_participant.hpp"
 #include "world/terrain.hpp"
 
@@ -61,7 +61,7 @@ struct AgentDeadlineStats {
 };
 
 struct WorldNodeResult {
-  sim::MissionResult mission;
+  mission::MissionResult mission;
   std::vector<AgentDeadlineStats> agents;
   std::vector<int> lost;
   long long messages_rejected = 0;  ///< malformed answers the world refused
@@ -72,7 +72,7 @@ struct WorldNodeResult {
 
 /// Runs the world until every agent is finished or lost, or simulation.duration_s. Throws
 /// InputError for invalid options.
-WorldNodeResult run_world_node(const sim::Scenario& scenario,
+WorldNodeResult run_world_node(const mission::Scenario& scenario,
                                std::shared_ptr<const world::Terrain> terrain,
                                const transport_dds::DdsOptions& dds,
                                const WorldNodeOptions& options);

@@ -11,8 +11,8 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "mission/statistics.hpp"
 #include "sim/mission.hpp"
-#include "sim/statistics.hpp"
 
 namespace ridgeline::sim {
 namespace {
@@ -23,7 +23,7 @@ struct RunResult {
   bool ok = false;
   std::string error;
   std::uint64_t seed = 0;
-  MissionMetrics metrics;
+  mission::MissionMetrics metrics;
   std::vector<double> bin_sum;  ///< Σ squared error per distance bin
   std::vector<long long> bin_count;
 };
@@ -38,12 +38,13 @@ nlohmann::json mean_std(const std::vector<double>& v) {
   return {{"mean", mean}, {"std", sd}, {"count", v.size()}};
 }
 
-void bin_errors(const std::vector<TrajectoryRow>& rows, int uavs, double bin_m, RunResult& out) {
+void bin_errors(const std::vector<mission::TrajectoryRow>& rows, int uavs, double bin_m,
+                RunResult& out) {
   std::vector<double> travelled(static_cast<std::size_t>(uavs), 0.0),
       next(static_cast<std::size_t>(uavs), 0.0);
   std::vector<Vec3> last(static_cast<std::size_t>(uavs));
   std::vector<char> seen(static_cast<std::size_t>(uavs), 0);
-  for (const TrajectoryRow& r : rows) {
+  for (const mission::TrajectoryRow& r : rows) {
     const std::size_t i = static_cast<std::size_t>(r.uav);
     if (seen[i]) travelled[i] += (r.position_m - last[i]).norm();
     seen[i] = 1;
@@ -71,9 +72,9 @@ std::vector<ExperimentTask> default_experiment_tasks() {
   };
 }
 
-Scenario task_scenario(const Scenario& base, const world::Terrain& terrain,
-                       const ExperimentTask& task, double target_height_m) {
-  Scenario s = base;
+mission::Scenario task_scenario(const mission::Scenario& base, const world::Terrain& terrain,
+                                const ExperimentTask& task, double target_height_m) {
+  mission::Scenario s = base;
   s.name = base.name + "/" + task.name;
   if (!task.target_fractions.empty()) {
     s.targets.clear();
@@ -95,7 +96,8 @@ Scenario task_scenario(const Scenario& base, const world::Terrain& terrain,
   return s;
 }
 
-nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world::Terrain> terrain,
+nlohmann::json run_experiment(const mission::Scenario& base,
+                              std::shared_ptr<const world::Terrain> terrain,
                               const ExperimentOptions& options) {
   if (options.runs < 1) throw InputError("runs", "must be at least 1");
   if (options.threads < 1) throw InputError("threads", "must be at least 1");
@@ -110,7 +112,7 @@ nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world:
   const std::size_t n_tasks = options.tasks.size(), n_methods = options.methods.size();
   const std::size_t runs = static_cast<std::size_t>(options.runs);
 
-  std::vector<Scenario> scenarios;
+  std::vector<mission::Scenario> scenarios;
   for (const ExperimentTask& t : options.tasks)
     scenarios.push_back(task_scenario(base, *terrain, t, options.target_height_m));
   // One plan per task and method, before any flight (the ground station's step).
@@ -137,12 +139,12 @@ nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world:
         out.error = "not planned: " + plan.message;
       } else {
         try {
-          const Scenario varied =
+          const mission::Scenario varied =
               vary_scenario(scenarios[t], *terrain, out.seed, options.variation);
           MissionOptions mission;
           mission.method = options.methods[m];
           mission.ddpg_policy = options.ddpg_policy;
-          MissionResult flown = fly_mission(varied, terrain, plan, mission);
+          mission::MissionResult flown = fly_mission(varied, terrain, plan, mission);
           bin_errors(flown.trajectories, static_cast<int>(varied.uavs.size()), options.error_bin_m,
                      out);
           out.metrics = std::move(flown.metrics);
@@ -177,7 +179,7 @@ nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world:
     task["task"] = options.tasks[t].name;
     task["description"] = options.tasks[t].description;
     task["targets"] = nlohmann::json::array();
-    for (const InspectionTarget& target : scenarios[t].targets)
+    for (const mission::InspectionTarget& target : scenarios[t].targets)
       task["targets"].push_back(
           {{"name", target.name},
            {"position_m", {target.position_m.x(), target.position_m.y(), target.position_m.z()}}});
@@ -202,9 +204,9 @@ nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world:
           run_rows.push_back(std::move(row));
           continue;
         }
-        const MissionMetrics& mm = rr.metrics;
+        const mission::MissionMetrics& mm = rr.metrics;
         double path = 0.0, run_mse = 0.0;
-        for (const UavMetrics& u : mm.uavs) {
+        for (const mission::UavMetrics& u : mm.uavs) {
           path += u.path_length_m;
           uav_path.push_back(u.path_length_m);
           mse.push_back(u.tracking_mse_m2);

@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "learning/ddpg.hpp"
+#include "mission/scenario.hpp"
 #include "sim/method.hpp"
-#include "sim/scenario.hpp"
 #include "sim/variation.hpp"
 
 namespace ridgeline::sim {
@@ -53,8 +53,8 @@ struct ExperimentOptions {
 
 /// The scenario of one task: the base scenario with the task's targets. Throws InputError
 /// when a target falls outside what the scenario allows (names the task and target).
-Scenario task_scenario(const Scenario& base, const world::Terrain& terrain,
-                       const ExperimentTask& task, double target_height_m);
+mission::Scenario task_scenario(const mission::Scenario& base, const world::Terrain& terrain,
+                                const ExperimentTask& task, double target_height_m);
 
 /// Runs the experiment and returns experiment.json:
 /// {"runs", "threads", "wall_time_s", "methods": [...], "tasks": [{"task", "description",
@@ -67,7 +67,8 @@ Scenario task_scenario(const Scenario& base, const world::Terrain& terrain,
 ///  "missions_complete", "control_step_us": {median, p99, max}, "wall_time_s", "runs":
 ///  [{seed, path_length_m, tracking_mse_m2, encounters, intrusions, ...}]}.
 /// Throws InputError for runs < 1, threads < 1, no tasks or no methods, or ddpg without a policy.
-nlohmann::json run_experiment(const Scenario& base, std::shared_ptr<const world::Terrain> terrain,
+nlohmann::json run_experiment(const mission::Scenario& base,
+                              std::shared_ptr<const world::Terrain> terrain,
                               const ExperimentOptions& options);
 
 }  // namespace ridgeline::sim

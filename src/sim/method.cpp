@@ -3,8 +3,11 @@
 #include <fmt/format.h>
 
 #include "baselines/baseline_planner.hpp"
+#include "baselines/ddpg_agent.hpp"
+#include "baselines/dwa_agent.hpp"
+#include "baselines/pursuit_agent.hpp"
 #include "core/error.hpp"
-#include "sim/mission_problem.hpp"
+#include "mission/stage_inputs.hpp"
 
 namespace ridgeline::sim {
 
@@ -33,10 +36,10 @@ Method parse_method(std::string_view text, const std::string& field) {
       field, fmt::format("unknown method '{}' (one of proposed, astar_dwa, wind_aware, ddpg)", text));
 }
 
-planning::GlobalPlan plan_for_method(const Scenario& scenario,
+planning::GlobalPlan plan_for_method(const mission::Scenario& scenario,
                                      std::shared_ptr<const world::Terrain> terrain, Method method) {
-  const planning::GlobalPlanningProblem problem = make_planning_problem(scenario, terrain);
-  const planning::GlobalPlannerOptions proposed = make_planner_options(scenario);
+  const planning::GlobalPlanningProblem problem = mission::make_planning_problem(scenario, terrain);
+  const planning::GlobalPlannerOptions proposed = mission::make_planner_options(scenario);
   if (method == Method::kProposed) return planning::plan_mission(problem, proposed);
   baselines::BaselinePlannerOptions o;
   o.method = method == Method::kWindAware ? baselines::BaselinePathMethod::kWindAware
@@ -46,6 +49,54 @@ planning::GlobalPlan plan_for_method(const Scenario& scenario,
   o.timing = proposed.timing;
   o.forecast_wind_m_s = scenario.wind.mean_m_s;  // the forecast: the scenario's mean wind
   return baselines::plan_baseline_mission(problem, o);
+}
+
+baselines::BaselineAgentOptions make_baseline_agent_options(const mission::Scenario& scenario,
+                                                            int index,
+                                                            const planning::UavPlan& plan) {
+  const mission::UavSpec& uav = scenario.uavs[static_cast<std::size_t>(index)];
+  baselines::BaselineAgentOptions o;
+  o.id = index;
+  o.num_uavs = static_cast<int>(scenario.uavs.size());
+  o.vehicle = uav.vehicle;
+  for (const int k : plan.targets) {
+    const mission::InspectionTarget& t = scenario.targets.at(static_cast<std::size_t>(k));
+    o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
+  }
+  o.control_period_s = scenario.mpc.control_period_s;
+  o.prediction_step_s = scenario.mpc.prediction_step_s;
+  o.prediction_steps = scenario.mpc.horizon_steps;
+  // The proposed tracker's command-rate limits (max_moves per prediction step).
+  o.max_command_rate = scenario.mpc.max_moves / scenario.mpc.prediction_step_s;
+  return o;
+}
+
+std::unique_ptr<swarm::UavAgent> make_agent(
+    Method method, const mission::Scenario& scenario, int index, const planning::UavPlan& plan,
+    std::shared_ptr<const mpc::SampledReference> reference,
+    std::shared_ptr<const world::Terrain> terrain,
+    std::shared_ptr<const learning::DdpgPolicy> ddpg_policy) {
+  switch (method) {
+    case Method::kProposed:
+      return std::make_unique<swarm::Agent>(mission::make_agent_options(scenario, index, plan),
+                                            scenario.safety, std::move(reference),
+                                            std::move(terrain));
+    case Method::kAstarDwa:
+      return std::make_unique<baselines::DwaAgent>(
+          make_baseline_agent_options(scenario, index, plan), scenario.safety,
+          baselines::DwaOptions{}, std::move(reference), std::move(terrain));
+    case Method::kWindAware:
+      return std::make_unique<baselines::PursuitAgent>(
+          make_baseline_agent_options(scenario, index, plan), scenario.safety,
+          baselines::PursuitOptions{}, std::move(reference), std::move(terrain));
+    case Method::kDdpg:
+      if (!ddpg_policy)
+        throw InputError("--ddpg-model", "method ddpg needs a DDPG model (none loaded)");
+      return std::make_unique<baselines::DdpgAgent>(
+          make_baseline_agent_options(scenario, index, plan), scenario.safety,
+          std::move(ddpg_policy), std::move(reference), std::move(terrain));
+  }
+  throw InputError("--method", "unknown method");
 }
 
 }  // namespace ridgeline::sim

@@ -9,8 +9,12 @@
 #include <string_view>
 #include <vector>
 
+#include "baselines/baseline_agent.hpp"
+#include "learning/ddpg.hpp"
+#include "mission/scenario.hpp"
+#include "mpc/reference.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/scenario.hpp"
+#include "swarm/uav_agent.hpp"
 
 namespace ridgeline::sim {
 
@@ -32,7 +36,23 @@ std::vector<Method> all_methods();
 Method parse_method(std::string_view text, const std::string& field = "--method");
 
 /// The method's ground-station plan for the scenario (never throws on bad data: see status).
-planning::GlobalPlan plan_for_method(const Scenario& scenario,
+planning::GlobalPlan plan_for_method(const mission::Scenario& scenario,
                                      std::shared_ptr<const world::Terrain> terrain, Method method);
+
+/// The comparison agents' options for UAV `index` (baselines/baseline_agent.hpp).
+baselines::BaselineAgentOptions make_baseline_agent_options(const mission::Scenario& scenario,
+                                                            int index,
+                                                            const planning::UavPlan& plan);
+
+/// The on-board agent of `method` for UAV `index`, flying `reference` with the targets of
+/// `plan`, held to the scenario's safety limits: the one place a method becomes an agent (the
+/// DDS agent process flies only the proposed method, through mission::make_agent_options, so
+/// it links none of the comparison methods). `ddpg_policy` is required for Method::kDdpg
+/// (InputError naming --ddpg-model otherwise).
+std::unique_ptr<swarm::UavAgent> make_agent(
+    Method method, const mission::Scenario& scenario, int index, const planning::UavPlan& plan,
+    std::shared_ptr<const mpc::SampledReference> reference,
+    std::shared_ptr<const world::Terrain> terrain,
+    std::shared_ptr<const learning::DdpgPolicy> ddpg_policy);
 
 }  // namespace ridgeline::sim

@@ -17,28 +17,14 @@
 #include <string>
 #include <vector>
 
-#include "mpc/uav_tracker.hpp"
+#include "learning/ddpg.hpp"
+#include "mission/mission_metrics.hpp"
+#include "mission/scenario.hpp"
 #include "planning/global_planner.hpp"
 #include "sim/external_vehicles.hpp"
 #include "sim/method.hpp"
-#include "sim/mission_metrics.hpp"
-#include "sim/scenario.hpp"
-#include "baselines/baseline_agent.hpp"
-#include "learning/ddpg.hpp"
-#include "swarm/agent.hpp"
 
 namespace ridgeline::sim {
-
-/// One row of trajectories.csv: a UAV at a control step.
-struct TrajectoryRow {
-  double t_s = 0.0;
-  int uav = 0;
-  Vec3 position_m = Vec3::Zero();
-  Vec3 reference_m = Vec3::Zero();
-  double speed_m_s = 0.0;
-  double heading_rad = 0.0;
-  double climb_rate_m_s = 0.0;
-};
 
 struct MissionOptions {
   bool record_trajectories = true;
@@ -56,29 +42,12 @@ struct MissionOptions {
   ExternalVehicles* vehicles = nullptr;
 };
 
-struct MissionResult {
-  MissionMetrics metrics;
-  std::vector<TrajectoryRow> trajectories;
-};
-
-/// The tracker's options for a UAV from the scenario's mpc block and safety margins.
-mpc::UavTrackerOptions make_tracker_options(const Scenario& scenario, const UavSpec& uav);
-
-/// The agent's options for UAV `index` with its targets from the plan.
-swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
-                                       const planning::UavPlan& plan);
-
-/// The comparison agents' options for UAV `index` (baselines/baseline_agent.hpp).
-baselines::BaselineAgentOptions make_baseline_agent_options(const Scenario& scenario, int index,
-                                                            const planning::UavPlan& plan);
-
 /// Flies the planned mission. `plan` must be planned (status kPlanned) for this scenario (a
 /// UAV without a plan entry holds at its start);
 /// throws InputError otherwise.
-MissionResult fly_mission(const Scenario& scenario, std::shared_ptr<const world::Terrain> terrain,
-                          const planning::GlobalPlan& plan, const MissionOptions& options = {});
-
-/// trajectories.csv: header `t,uav,x,y,z,ref_x,ref_y,ref_z,v,psi,w`, uav by name.
-std::string trajectories_csv(const std::vector<TrajectoryRow>& rows, const Scenario& scenario);
+mission::MissionResult fly_mission(const mission::Scenario& scenario,
+                                   std::shared_ptr<const world::Terrain> terrain,
+                                   const planning::GlobalPlan& plan,
+                                   const MissionOptions& options = {});
 
 }  // namespace ridgeline::sim

@@ -11,13 +11,13 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "mission/statistics.hpp"
 #include "sim/mission.hpp"
-#include "sim/statistics.hpp"
 
 namespace ridgeline::sim {
 namespace {
 
-std::vector<std::string> failures_of(const MissionMetrics& m) {
+std::vector<std::string> failures_of(const mission::MissionMetrics& m) {
   std::vector<std::string> out;
   if (m.terrain_collisions > 0) out.push_back("terrain collision");
   if (m.threat_intrusions > 0) out.push_back("threat intrusion");
@@ -31,7 +31,7 @@ std::vector<std::string> failures_of(const MissionMetrics& m) {
 nlohmann::json distribution(std::vector<double> v) {
   std::erase_if(v, [](double x) { return !std::isfinite(x); });
   if (v.empty()) return nullptr;
-  const Percentiles p = percentiles(v);
+  const mission::Percentiles p = mission::percentiles(v);
   const double mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
   return {{"min", *std::min_element(v.begin(), v.end())},
           {"median", p.median},
@@ -42,7 +42,7 @@ nlohmann::json distribution(std::vector<double> v) {
 }
 
 nlohmann::json rate(long long successes, long long trials) {
-  const Interval w = wilson_interval(successes, trials);
+  const mission::Interval w = mission::wilson_interval(successes, trials);
   return {
       {"successes", successes},
       {"trials", trials},
@@ -52,7 +52,7 @@ nlohmann::json rate(long long successes, long long trials) {
 
 }  // namespace
 
-MonteCarloReport run_monte_carlo(const Scenario& scenario,
+MonteCarloReport run_monte_carlo(const mission::Scenario& scenario,
                                  std::shared_ptr<const world::Terrain> terrain,
                                  const planning::GlobalPlan& plan,
                                  const MonteCarloOptions& options) {
@@ -73,7 +73,8 @@ MonteCarloReport run_monte_carlo(const Scenario& scenario,
       run.index = i;
       run.seed = variation_seed(scenario, i);
       try {
-        const Scenario varied = vary_scenario(scenario, *terrain, run.seed, options.variation);
+        const mission::Scenario varied =
+            vary_scenario(scenario, *terrain, run.seed, options.variation);
         MissionOptions mission;
         mission.record_trajectories = false;
         mission.method = options.method;
@@ -106,7 +107,7 @@ nlohmann::json MonteCarloReport::summary() const {
       wall_time, cpu_time, replans;
   nlohmann::json failed = nlohmann::json::array();
   for (const MonteCarloRun& r : runs) {
-    const MissionMetrics& m = r.metrics;
+    const mission::MissionMetrics& m = r.metrics;
     safe += m.safe() && !m.uavs.empty() ? 1 : 0;  // no metrics: the run threw
     complete += m.mission_complete ? 1 : 0;
     encounters += m.threat_encounters;
@@ -117,7 +118,7 @@ nlohmann::json MonteCarloReport::summary() const {
     min_sep.push_back(m.min_separation_m);
     min_threat.push_back(m.min_threat_distance_m);
     double clear = INFINITY, rmse_sum = 0.0, path_sum = 0.0, replan_sum = 0.0;
-    for (const UavMetrics& u : m.uavs) {
+    for (const mission::UavMetrics& u : m.uavs) {
       clear = std::min(clear, u.min_terrain_clearance_m);
       rmse_sum += u.tracking_rmse_m;
       path_sum += u.path_length_m;

@@ -7,16 +7,15 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
-#include "planning/global_planner.hpp"
 #include "learning/ddpg.hpp"
+#include "mission/mission_metrics.hpp"
+#include "mission/scenario.hpp"
+#include "planning/global_planner.hpp"
 #include "sim/method.hpp"
-#include "sim/mission_metrics.hpp"
-#include "sim/scenario.hpp"
 #include "sim/variation.hpp"
 
 namespace ridgeline::sim {
@@ -34,7 +33,7 @@ struct MonteCarloOptions {
 struct MonteCarloRun {
   int index = 0;
   std::uint64_t seed = 0;
-  MissionMetrics metrics;
+  mission::MissionMetrics metrics;
   /// Why the run failed: "terrain collision", "threat intrusion", ...; empty when it passed.
   std::vector<std::string> failures;
 };
@@ -49,8 +48,9 @@ struct MonteCarloReport {
 };
 
 /// Throws InputError for runs < 1 or threads < 1, or a plan that is not planned.
-MonteCarloReport run_monte_carlo(const Scenario& scenario,
+MonteCarloReport run_monte_carlo(const mission::Scenario& scenario,
                                  std::shared_ptr<const world::Terrain> terrain,
-                                 const planning::GlobalPlan& plan, const MonteCarloOptions& options);
+                                 const planning::GlobalPlan& plan,
+                                 const MonteCarloOptions& options);
 
 }  // namespace ridgeline::sim

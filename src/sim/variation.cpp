@@ -7,14 +7,14 @@
 
 namespace ridgeline::sim {
 
-std::uint64_t variation_seed(const Scenario& scenario, int index) {
+std::uint64_t variation_seed(const mission::Scenario& scenario, int index) {
   // Small, readable seeds: the scenario's seed times 100000 plus the run index.
   return scenario.seed * 100000ULL + static_cast<std::uint64_t>(index) + 1ULL;
 }
 
-Scenario vary_scenario(const Scenario& scenario, const world::Terrain& terrain,
-                       std::uint64_t seed, const VariationOptions& o) {
-  Scenario s = scenario;
+mission::Scenario vary_scenario(const mission::Scenario& scenario, const world::Terrain& terrain,
+                                std::uint64_t seed, const VariationOptions& o) {
+  mission::Scenario s = scenario;
   s.seed = seed;
   Rng rng(derive_seed(seed, 1));
   for (world::Threat& th : s.threats) {
@@ -34,7 +34,7 @@ Scenario vary_scenario(const Scenario& scenario, const world::Terrain& terrain,
   s.wind.mean_m_s = Vec3(scale * (std::cos(angle) * w.x() - std::sin(angle) * w.y()),
                          scale * (std::sin(angle) * w.x() + std::cos(angle) * w.y()), w.z());
   for (std::size_t i = 0; i < s.uavs.size(); ++i) {
-    const UavSpec original = s.uavs[i];
+    const mission::UavSpec original = s.uavs[i];
     for (int attempt = 0; attempt < 20; ++attempt) {
       s.uavs[i].start_position_m.x() =
           original.start_position_m.x() + rng.uniform(-o.start_jitter_m, o.start_jitter_m);

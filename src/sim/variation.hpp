@@ -13,7 +13,7 @@
 
 #include <cstdint>
 
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::sim {
@@ -29,11 +29,11 @@ struct VariationOptions {
 };
 
 /// The scenario as flown in variation `variation_seed`; scenario.seed becomes that seed.
-Scenario vary_scenario(const Scenario& scenario, const world::Terrain& terrain,
-                       std::uint64_t variation_seed, const VariationOptions& options = {});
+mission::Scenario vary_scenario(const mission::Scenario& scenario, const world::Terrain& terrain,
+                                std::uint64_t variation_seed, const VariationOptions& options = {});
 
 /// The seed of run `index` of a Monte Carlo batch on a scenario (replayable with
 /// `ridgeline run --variation SEED`).
-std::uint64_t variation_seed(const Scenario& scenario, int index);
+std::uint64_t variation_seed(const mission::Scenario& scenario, int index);
 
 }  // namespace ridgeline::sim

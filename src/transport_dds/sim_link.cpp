@@ -19,7 +19,10 @@ Vec3 from_dds(const V3& v) { return Vec3(v.x, v.y, v.z); }
 constexpr std::uint32_t kMaxThreats = 1000;
 constexpr std::uint32_t kMaxLost = 1000;
 constexpr std::uint32_t kMaxMissed = 1000;
-constexpr int kNumCounters = 10;
+constexpr int kNumCounters = 12;
+// The IDL's counters[] carries every field of AgentCounters, in declaration order.
+static_assert(sizeof(swarm::AgentCounters) == kNumCounters * sizeof(std::uint64_t),
+              "AgentCounters and Command_::counters (ridgeline_msgs.idl) must match");
 
 std::optional<std::string> check_uav(int uav, int num_uavs) {
   if (uav < 0 || uav >= num_uavs)
@@ -28,16 +31,10 @@ std::optional<std::string> check_uav(int uav, int num_uavs) {
 }
 
 std::array<std::uint64_t*, kNumCounters> counter_fields(swarm::AgentCounters& c) {
-  return {&c.messages_received,
-          &c.messages_rejected,
-          &c.stale_neighbour_steps,
-          &c.replans,
-          &c.neighbour_conflicts,
-          &c.replan_failures,
-          &c.rejoins,
-          &c.fallback_steps,
-          &c.qp_failures,
-          &c.threat_reports_sent};
+  return {&c.messages_received, &c.messages_rejected,   &c.stale_neighbour_steps,
+          &c.replans,           &c.neighbour_conflicts, &c.replan_failures,
+          &c.optimizer_replans, &c.optimizer_fallbacks, &c.rejoins,
+          &c.fallback_steps,    &c.qp_failures,         &c.threat_reports_sent};
 }
 
 }  // namespace
@@ -81,8 +78,8 @@ std::optional<std::string> check_command(const CommandReport& c, int num_uavs) {
   if (!(std::isfinite(c.t_s) && c.t_s >= 0.0)) return fmt::format("t_s {} is invalid", c.t_s);
   if (!c.command.allFinite()) return std::string("command is not finite");
   if (!c.reference_m.allFinite()) return std::string("reference is not finite");
-  for (const double v :
-       {c.mpc_step_us, c.qp_iterations, c.max_slack_m, c.loop_period_s, c.compute_s})
+  for (const double v : {c.mpc_step_us, c.mpc_step_cpu_us, c.qp_iterations, c.max_slack_m,
+                         c.loop_period_s, c.compute_s})
     if (!(std::isfinite(v) && v >= 0.0)) return fmt::format("a timing or count {} is invalid", v);
   if (c.targets_inspected < 0 || c.targets_assigned < 0 || c.targets_inspected > c.targets_assigned)
     return fmt::format("targets inspected {} of {} is invalid", c.targets_inspected,
@@ -211,6 +208,7 @@ void SimLink::publish(const CommandReport& c) {
   s.reference_m = to_dds(c.reference_m);
   s.has_tracker = c.has_tracker;
   s.mpc_step_us = c.mpc_step_us;
+  s.mpc_step_cpu_us = c.mpc_step_cpu_us;
   s.qp_iterations = c.qp_iterations;
   s.max_slack_m = c.max_slack_m;
   s.plan_version = c.plan_version;
@@ -312,6 +310,7 @@ void SimLink::take(std::vector<CommandReport>& out) {
     c.reference_m = from_dds(s.reference_m);
     c.has_tracker = s.has_tracker;
     c.mpc_step_us = s.mpc_step_us;
+    c.mpc_step_cpu_us = s.mpc_step_cpu_us;
     c.qp_iterations = s.qp_iterations;
     c.max_slack_m = s.max_slack_m;
     c.plan_version = s.plan_version;

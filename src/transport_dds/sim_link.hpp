@@ -55,6 +55,7 @@ struct CommandReport {
   Vec3 reference_m = Vec3::Zero();
   bool has_tracker = false;
   double mpc_step_us = 0.0;
+  double mpc_step_cpu_us = 0.0;
   double qp_iterations = 0.0;
   double max_slack_m = 0.0;
   int plan_version = 0;

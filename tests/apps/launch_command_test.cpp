@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 
 #include "support/temp_dir.hpp"
@@ -68,6 +69,27 @@ void expect_same_flight(const json& a, const json& b) {
   }
 }
 
+/// Every key path of a metrics document ("uavs[].path_length_m"), the elements of an array
+/// merged; the DDS-only section "distributed" is left out.
+void collect_keys(const json& j, const std::string& prefix, std::set<std::string>& keys) {
+  if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) {
+      if (prefix.empty() && key == "distributed") continue;
+      const std::string path = prefix.empty() ? key : prefix + "." + key;
+      keys.insert(path);
+      collect_keys(value, path, keys);
+    }
+  } else if (j.is_array()) {
+    for (const json& element : j) collect_keys(element, prefix + "[]", keys);
+  }
+}
+
+std::set<std::string> metric_keys(const json& m) {
+  std::set<std::string> keys;
+  collect_keys(m, "", keys);
+  return keys;
+}
+
 TEST(LaunchCommand, ThreeAgentProcessesFlyTheDefaultMissionInLockStepLikeTheInProcessRun) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   ASSERT_EQ(
@@ -95,7 +117,18 @@ TEST(LaunchCommand, ThreeAgentProcessesFlyTheDefaultMissionInLockStepLikeTheInPr
   // The same mission in one process (`run`): the transport is the only difference.
   ASSERT_EQ(run_cli("run --quiet --out " + (dir / "run").string(), dir / "run.log"), 0)
       << slurp(dir / "run.log");
-  expect_same_flight(read_json(dir / "run" / "metrics.json"), m);
+  const json r = read_json(dir / "run" / "metrics.json");
+  expect_same_flight(r, m);
+  // One recorder writes both (mission/flight_recorder.hpp): the same metrics, key for key, the
+  // controller's CPU time and the optimizer's re-plans included.
+  const std::set<std::string> run_keys = metric_keys(r);
+  EXPECT_EQ(run_keys, metric_keys(m));
+  EXPECT_TRUE(run_keys.contains("uavs[].optimizer_replans"));
+  EXPECT_TRUE(run_keys.contains("mpc_solve_cpu_us.median"));
+  EXPECT_GT(m["mpc_solve_cpu_us"]["median"].get<double>(), 0.0);
+  for (const char* key : {"optimizer_replans", "replans", "fallback_steps"})
+    for (std::size_t i = 0; i < r["uavs"].size(); ++i)
+      EXPECT_EQ(r["uavs"][i][key], m["uavs"][i][key]) << key << " " << i;
 }
 
 TEST(LaunchCommand, AKilledAgentsTargetsAreReallocatedAndTheOthersStaySafe) {

@@ -46,7 +46,7 @@ TEST_F(PlanCommand, DefaultPlanKeepsEveryHardConstraintWhenReCheckedFromTheFile)
       << slurp(dir_ / "log.txt");
   const nlohmann::json plan = nlohmann::json::parse(slurp(dir_ / "out" / "plan.json"));
   const io::LoadedScenario loaded = io::load_default_scenario();
-  const sim::Scenario& s = loaded.scenario;
+  const mission::Scenario& s = loaded.scenario;
   const world::Terrain& terrain = *loaded.terrain;
 
   ASSERT_EQ(plan["uavs"].size(), s.uavs.size());

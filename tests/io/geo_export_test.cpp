@@ -26,7 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const sim::GeodeticOrigin kOrigin{-33.85, 151.2, 120.0};  // southern and eastern hemispheres
+const mission::GeodeticOrigin kOrigin{-33.85, 151.2, 120.0};  // southern and eastern hemispheres
 
 // A plan.json as io/plan_file.hpp writes it (the keys exports read), with random waypoints and
 // a reference through them.
@@ -279,16 +279,16 @@ TEST_F(GeoExport, APlanWithoutOriginNeedsOneAndMalformedPlansNameTheField) {
 }
 
 TEST_F(GeoExport, FlightTracksAreSampledAndEndWhereTheUavWasLastSeen) {
-  sim::Scenario s;
+  mission::Scenario s;
   s.name = "flight";
   s.origin = kOrigin;
   s.uavs.resize(2);
   s.uavs[0].name = "a";
   s.uavs[1].name = "b";
-  std::vector<sim::TrajectoryRow> rows;
+  std::vector<mission::TrajectoryRow> rows;
   for (int k = 0; k <= 251; ++k) {  // 50 Hz for 5.02 s
     for (int u = 0; u < 2; ++u) {
-      sim::TrajectoryRow r;
+      mission::TrajectoryRow r;
       r.t_s = 0.02 * k;
       r.uav = u;
       r.position_m = Vec3(10.0 * r.t_s, 100.0 * u, 300.0);

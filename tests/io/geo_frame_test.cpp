@@ -31,8 +31,8 @@ double metres_per_deg_lon(double lat_deg) {
 TEST(GeoFrame, LatLonToLocalAndBackWithinOneMillimetre) {
   Rng rng(20261123);
   for (int o = 0; o < 40; ++o) {
-    const sim::GeodeticOrigin origin{rng.uniform(-80.0, 80.0), rng.uniform(-179.0, 179.0),
-                                     rng.uniform(-100.0, 4000.0)};
+    const mission::GeodeticOrigin origin{rng.uniform(-80.0, 80.0), rng.uniform(-179.0, 179.0),
+                                         rng.uniform(-100.0, 4000.0)};
     const GeoFrame frame(origin);
     for (int k = 0; k < 250; ++k) {
       // Up to ~30 km from the origin: far beyond a mission area.
@@ -55,7 +55,8 @@ TEST(GeoFrame, LatLonToLocalAndBackWithinOneMillimetre) {
 TEST(GeoFrame, OriginIsZeroAndSmallOffsetsFollowTheRadiiOfCurvature) {
   Rng rng(7);
   for (int o = 0; o < 50; ++o) {
-    const sim::GeodeticOrigin origin{rng.uniform(-70.0, 70.0), rng.uniform(-180.0, 180.0), 500.0};
+    const mission::GeodeticOrigin origin{rng.uniform(-70.0, 70.0), rng.uniform(-180.0, 180.0),
+                                         500.0};
     const GeoFrame frame(origin);
     const Vec3 zero = frame.to_local({origin.lat_deg, origin.lon_deg, 0.0});
     EXPECT_LT(std::hypot(zero.x(), zero.y()), 1e-6);
@@ -74,7 +75,7 @@ TEST(GeoFrame, GridDistancesMatchGeodesicsNearTheOrigin) {
   geod_init(&g, kA, kF);
   Rng rng(99);
   for (int o = 0; o < 20; ++o) {
-    const sim::GeodeticOrigin origin{rng.uniform(-60.0, 60.0), rng.uniform(-180.0, 180.0), 0.0};
+    const mission::GeodeticOrigin origin{rng.uniform(-60.0, 60.0), rng.uniform(-180.0, 180.0), 0.0};
     const GeoFrame frame(origin);
     for (int k = 0; k < 50; ++k) {
       const Vec3 a(rng.uniform(-5e3, 5e3), rng.uniform(-5e3, 5e3), 0.0);

@@ -24,10 +24,10 @@ constexpr const char* kFakePlotly =
     "/* plotly.js v0-test BUNDLE-MARKER-7f3a */ window.Plotly = {newPlot: function () {}};";
 
 struct Fixture {
-  sim::Scenario scenario;
+  mission::Scenario scenario;
   world::PeakTerrain terrain{world::PeakTerrainConfig{{{400, 320, 150, 120, 100}}}};
-  sim::MissionMetrics metrics;
-  std::vector<sim::TrajectoryRow> rows;
+  mission::MissionMetrics metrics;
+  std::vector<mission::TrajectoryRow> rows;
 
   MissionReportInput input() const { return {scenario, terrain, metrics, rows}; }
 };
@@ -39,7 +39,7 @@ Fixture straight_flights() {
   Fixture f;
   f.scenario.name = "straight";
   f.scenario.area = {0, 1000, 0, 800};
-  sim::UavSpec a, b;
+  mission::UavSpec a, b;
   a.name = "alpha";
   a.start_position_m = Vec3(0, 100, 80);
   b.name = "bravo";
@@ -49,20 +49,20 @@ Fixture straight_flights() {
   f.scenario.threats = {{"t1", Vec3(500, 400, 100), Vec3(2, -1, 0), 40, 3, 8}};
   for (int k = 0; k <= 500; ++k) {
     const double t = 0.02 * k;
-    sim::TrajectoryRow ra;
+    mission::TrajectoryRow ra;
     ra.t_s = t;
     ra.uav = 0;
     ra.position_m = Vec3(10.0 * t, 100, 80);
     ra.reference_m = Vec3(10.0 * t, 101, 80);
-    sim::TrajectoryRow rb;
+    mission::TrajectoryRow rb;
     rb.t_s = t;
     rb.uav = 1;
     rb.position_m = rb.reference_m = Vec3(100, 500, 90);
     f.rows.push_back(ra);
     f.rows.push_back(rb);
   }
-  for (const sim::UavSpec& u : f.scenario.uavs) {
-    sim::UavMetrics m;
+  for (const mission::UavSpec& u : f.scenario.uavs) {
+    mission::UavMetrics m;
     m.name = u.name;
     f.metrics.uavs.push_back(m);
   }
@@ -153,7 +153,7 @@ TEST(ReportData, CarriesTargetsThreatsAndTheMetrics) {
   ASSERT_EQ(d["threats"].size(), 1u);
   EXPECT_EQ(d["threats"][0]["radius_m"], 40.0);
   EXPECT_EQ(d["threats"][0]["appear_s"], 3.0);
-  EXPECT_EQ(d["metrics"], sim::to_json(f.metrics));
+  EXPECT_EQ(d["metrics"], mission::to_json(f.metrics));
 }
 
 TEST(ReportData, RowOfAnUnknownUavIsAnError) {
@@ -234,7 +234,7 @@ TEST(ReportHtml, DefaultMissionSizedReportStaysSmallBesideTheBundle) {
   f.rows.clear();
   for (int k = 0; k <= 12500; ++k)
     for (int i = 0; i < 3; ++i) {
-      sim::TrajectoryRow r;
+      mission::TrajectoryRow r;
       r.t_s = 0.02 * k;
       r.uav = i;
       r.position_m = Vec3(7.123456 * r.t_s, 100.0 + 200.0 * i + std::sin(r.t_s), 80.5);

@@ -14,8 +14,8 @@
 #include "io/geo_frame.hpp"
 #include "io/scenario_file.hpp"
 #include "io/scenario_summary.hpp"
+#include "mission/stage_inputs.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/mission_problem.hpp"
 #include "support/temp_dir.hpp"
 
 namespace ridgeline::io {
@@ -78,7 +78,7 @@ class GeoScenario : public ::testing::Test {
 
 TEST_F(GeoScenario, LatLonPositionsAndHomeBandAreInTheLocalFrameAboveSeaLevel) {
   const LoadedScenario loaded = load(scenario_yaml(kOrigin, kHomeBand));
-  const sim::Scenario& s = loaded.scenario;
+  const mission::Scenario& s = loaded.scenario;
   ASSERT_TRUE(s.origin.has_value());
   EXPECT_DOUBLE_EQ(s.safety.altitude.min_m, 840.0);
   EXPECT_DOUBLE_EQ(s.safety.altitude.max_m, 1300.0);
@@ -104,8 +104,8 @@ TEST_F(GeoScenario, LatLonPositionsAndHomeBandAreInTheLocalFrameAboveSeaLevel) {
 TEST_F(GeoScenario, PlansOverTheRealElevationsWithTheBandAboveHome) {
   const LoadedScenario loaded = load(scenario_yaml(kOrigin, kHomeBand));
   const planning::GlobalPlan plan =
-      planning::plan_mission(sim::make_planning_problem(loaded.scenario, loaded.terrain),
-                             sim::make_planner_options(loaded.scenario));
+      planning::plan_mission(mission::make_planning_problem(loaded.scenario, loaded.terrain),
+                             mission::make_planner_options(loaded.scenario));
   ASSERT_EQ(plan.status, planning::GlobalPlanStatus::kPlanned) << plan.message;
   const GeoFrame frame(*loaded.scenario.origin);
   double min_clearance = 1e9;

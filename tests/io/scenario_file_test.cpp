@@ -35,7 +35,7 @@ std::string load_error(const std::function<void(YAML::Node&)>& edit) {
 
 TEST(ScenarioFile, DefaultScenarioLoadsAndMatchesTheDesign) {
   const LoadedScenario loaded = load_default_scenario();
-  const sim::Scenario& s = loaded.scenario;
+  const mission::Scenario& s = loaded.scenario;
   // DESIGN §7: 2 km square, 6–8 peaks of 80–300 m, 3 UAVs, 3 targets, 3 threats of 30–60 m
   // moving 2–8 m/s, 2 m/s mean wind, MPC at 50 Hz.
   EXPECT_DOUBLE_EQ(s.area.x_max_m - s.area.x_min_m, 2000.0);
@@ -70,7 +70,7 @@ TEST(ScenarioFile, UavVehicleBlockOverridesTheDefaults) {
   root["uavs"][1]["vehicle"]["tau_v_s"] = 0.9;
   YAML::Emitter out;
   out << root;
-  const sim::Scenario s = parse_scenario(out.c_str(), "x.yaml", ".");
+  const mission::Scenario s = parse_scenario(out.c_str(), "x.yaml", ".");
   EXPECT_DOUBLE_EQ(s.uavs[1].vehicle.tau_v_s, 0.9);
   EXPECT_DOUBLE_EQ(s.uavs[0].vehicle.tau_v_s, 0.5);
   EXPECT_DOUBLE_EQ(s.uavs[1].vehicle.cruise_speed_m_s, 10.0);  // others inherited
@@ -134,9 +134,9 @@ TEST(ScenarioFile, WrongTypeIsNamed) {
 TEST(ScenarioFile, OptimizerReplanIsABooleanPlannerField) {
   // Off by default (the default scenario says false), on when set, and anything but a boolean
   // is one error naming the field.
-  const sim::Scenario d = load_scenario(std::string(default_scenario_yaml()), "default.yaml",
-                                        std::filesystem::temp_directory_path())
-                              .scenario;
+  const mission::Scenario d = load_scenario(std::string(default_scenario_yaml()), "default.yaml",
+                                            std::filesystem::temp_directory_path())
+                                  .scenario;
   EXPECT_FALSE(d.planner.optimizer_replan);
   YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
   root["planner"]["optimizer_replan"] = true;

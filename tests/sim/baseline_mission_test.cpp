@@ -19,19 +19,19 @@ class BaselineMission : public ::testing::TestWithParam<Method> {};
 
 TEST_P(BaselineMission, FliesToEveryTargetWithoutTerrainCollision) {
   std::shared_ptr<const world::Terrain> terrain;
-  const Scenario s = small_scenario(terrain, true);
+  const mission::Scenario s = small_scenario(terrain, true);
   const planning::GlobalPlan plan = plan_for_method(s, terrain, GetParam());
   ASSERT_EQ(plan.status, planning::GlobalPlanStatus::kPlanned) << plan.message;
   MissionOptions options;
   options.method = GetParam();
-  const MissionResult r = fly_mission(s, terrain, plan, options);
-  const MissionMetrics& m = r.metrics;
+  const mission::MissionResult r = fly_mission(s, terrain, plan, options);
+  const mission::MissionMetrics& m = r.metrics;
   EXPECT_TRUE(m.mission_complete) << to_json(m).dump(2);
   EXPECT_EQ(m.terrain_collisions, 0);
   EXPECT_EQ(m.constraint_violations.at("altitude"), 0);
   EXPECT_EQ(m.constraint_violations.at("turn"), 0);
   ASSERT_EQ(m.uavs.size(), 2u);
-  for (const UavMetrics& u : m.uavs) {
+  for (const mission::UavMetrics& u : m.uavs) {
     EXPECT_EQ(u.targets_inspected, 1);
     EXPECT_GE(u.min_terrain_clearance_m, s.safety.terrain_clearance_m) << u.name;
     // Each flew at least the straight-line distance to its target (≈ 690 m) and not wildly more.
@@ -53,7 +53,7 @@ INSTANTIATE_TEST_SUITE_P(Methods, BaselineMission,
 // [8]: the committed DDPG policy (models/) flies the same small mission through the same loop.
 TEST(DdpgMission, TheCommittedPolicyFliesToEveryTargetWithinTheLimits) {
   std::shared_ptr<const world::Terrain> terrain;
-  const Scenario s = small_scenario(terrain, true);
+  const mission::Scenario s = small_scenario(terrain, true);
   const planning::GlobalPlan plan = plan_for_method(s, terrain, Method::kDdpg);
   ASSERT_EQ(plan.status, planning::GlobalPlanStatus::kPlanned) << plan.message;
   MissionOptions options;
@@ -66,7 +66,7 @@ TEST(DdpgMission, TheCommittedPolicyFliesToEveryTargetWithinTheLimits) {
   }
   options.ddpg_policy = std::make_shared<const learning::DdpgPolicy>(
       learning::DdpgPolicy::load(RIDGELINE_SOURCE_DIR "/models/ddpg_mountain.pt"));
-  const MissionMetrics m = fly_mission(s, terrain, plan, options).metrics;
+  const mission::MissionMetrics m = fly_mission(s, terrain, plan, options).metrics;
   EXPECT_TRUE(m.mission_complete) << to_json(m).dump(2);
   EXPECT_EQ(m.terrain_collisions, 0);
   EXPECT_EQ(m.threat_intrusions, 0);
@@ -74,7 +74,7 @@ TEST(DdpgMission, TheCommittedPolicyFliesToEveryTargetWithinTheLimits) {
   EXPECT_EQ(m.constraint_violations.at("altitude"), 0);
   EXPECT_EQ(m.constraint_violations.at("turn"), 0);
   EXPECT_EQ(m.constraint_violations.at("pitch"), 0);
-  for (const UavMetrics& u : m.uavs) {
+  for (const mission::UavMetrics& u : m.uavs) {
     EXPECT_EQ(u.targets_inspected, 1) << u.name;
     EXPECT_GT(u.path_length_m, 600.0) << u.name;  // at least about the straight line
   }

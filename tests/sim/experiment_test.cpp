@@ -17,8 +17,8 @@ namespace {
 
 // The shared small scenario (tests/support) with short flights: the shape and the seeds are
 // under test, not the missions.
-Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain) {
-  Scenario s = test::small_scenario(terrain, true);
+mission::Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain) {
+  mission::Scenario s = test::small_scenario(terrain, true);
   s.simulation.duration_s = 25.0;
   return s;
 }
@@ -41,7 +41,7 @@ ExperimentOptions small_options(int threads) {
 
 TEST(Experiment, JsonHasEveryTaskAndMethodWithIdenticalSeedsPerRun) {
   std::shared_ptr<const world::Terrain> terrain;
-  const Scenario s = small_scenario(terrain);
+  const mission::Scenario s = small_scenario(terrain);
   const nlohmann::json e = run_experiment(s, terrain, small_options(2));
   ASSERT_EQ(e.at("tasks").size(), 2u);
   EXPECT_EQ(e.at("tasks")[0].at("task"), "own");
@@ -97,7 +97,7 @@ TEST(Experiment, JsonHasEveryTaskAndMethodWithIdenticalSeedsPerRun) {
 
 TEST(Experiment, ResultsDoNotDependOnTheNumberOfThreads) {
   std::shared_ptr<const world::Terrain> terrain;
-  Scenario s = small_scenario(terrain);
+  mission::Scenario s = small_scenario(terrain);
   s.simulation.duration_s = 15.0;
   ExperimentOptions o = small_options(1);
   o.tasks.resize(1);
@@ -117,7 +117,7 @@ TEST(Experiment, ResultsDoNotDependOnTheNumberOfThreads) {
 
 TEST(Experiment, BadOptionsAndTargetsOutsideTheAreaAreClearErrors) {
   std::shared_ptr<const world::Terrain> terrain;
-  const Scenario s = small_scenario(terrain);
+  const mission::Scenario s = small_scenario(terrain);
   ExperimentOptions o = small_options(1);
   o.runs = 0;
   EXPECT_THROW(run_experiment(s, terrain, o), InputError);

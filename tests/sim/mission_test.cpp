@@ -4,9 +4,9 @@
 
 #include <gtest/gtest.h>
 
-#include "sim/mission_problem.hpp"
+#include "mission/stage_inputs.hpp"
+#include "mission/statistics.hpp"
 #include "sim/monte_carlo.hpp"
-#include "sim/statistics.hpp"
 #include "support/small_mission.hpp"
 #include "world/terrain.hpp"
 
@@ -18,8 +18,8 @@ using test::small_mission;
 
 TEST(Mission, SmallMissionCompletesSafelyWithAThreatAndLossyLinks) {
   const Fixture f = small_mission(true);
-  const MissionResult r = fly_mission(f.scenario, f.terrain, f.plan);
-  const MissionMetrics& m = r.metrics;
+  const mission::MissionResult r = fly_mission(f.scenario, f.terrain, f.plan);
+  const mission::MissionMetrics& m = r.metrics;
   EXPECT_TRUE(m.mission_complete);
   EXPECT_TRUE(m.safe()) << to_json(m).dump(2);
   EXPECT_GE(m.min_separation_m, f.scenario.safety.separation_m);
@@ -27,7 +27,7 @@ TEST(Mission, SmallMissionCompletesSafelyWithAThreatAndLossyLinks) {
   EXPECT_EQ(m.threat_intrusions, 0);
   EXPECT_GT(m.messages_dropped, 0);  // 5 % of the copies are lost
   ASSERT_EQ(m.uavs.size(), 2u);
-  for (const UavMetrics& u : m.uavs) {
+  for (const mission::UavMetrics& u : m.uavs) {
     EXPECT_EQ(u.targets_inspected, 1);
     EXPECT_GE(u.min_terrain_clearance_m, f.scenario.safety.terrain_clearance_m);
     EXPECT_LT(u.tracking_rmse_m, 5.0);
@@ -43,14 +43,14 @@ TEST(Mission, OptimizerReplanFromTheScenarioFliesSafely) {
   // one conflict is re-planned by the local optimizer, and the flight is safe and complete.
   Fixture f = small_mission(true);
   f.scenario.planner.optimizer_replan = true;
-  const MissionResult r = fly_mission(f.scenario, f.terrain, f.plan);
-  const MissionMetrics& m = r.metrics;
+  const mission::MissionResult r = fly_mission(f.scenario, f.terrain, f.plan);
+  const mission::MissionMetrics& m = r.metrics;
   EXPECT_TRUE(m.mission_complete);
   EXPECT_TRUE(m.safe()) << to_json(m).dump(2);
   EXPECT_EQ(m.threat_intrusions, 0);
   EXPECT_GE(m.min_separation_m, f.scenario.safety.separation_m);
   long long optimizer_replans = 0;
-  for (const UavMetrics& u : m.uavs) {
+  for (const mission::UavMetrics& u : m.uavs) {
     EXPECT_GE(u.min_terrain_clearance_m, f.scenario.safety.terrain_clearance_m);
     EXPECT_LE(u.optimizer_replans, u.replans);
     optimizer_replans += u.optimizer_replans;
@@ -61,14 +61,14 @@ TEST(Mission, OptimizerReplanFromTheScenarioFliesSafely) {
 TEST(Mission, SameSeedGivesTheSameFlightAndAnotherSeedAnother) {
   Fixture f = small_mission(false);
   f.scenario.simulation.duration_s = 40.0;
-  const MissionResult a = fly_mission(f.scenario, f.terrain, f.plan);
-  const MissionResult b = fly_mission(f.scenario, f.terrain, f.plan);
+  const mission::MissionResult a = fly_mission(f.scenario, f.terrain, f.plan);
+  const mission::MissionResult b = fly_mission(f.scenario, f.terrain, f.plan);
   ASSERT_EQ(a.trajectories.size(), b.trajectories.size());
   for (std::size_t k = 0; k < a.trajectories.size(); k += 97)
     EXPECT_EQ(a.trajectories[k].position_m, b.trajectories[k].position_m) << k;
-  Scenario other = f.scenario;
+  mission::Scenario other = f.scenario;
   other.seed = 8;
-  const MissionResult c = fly_mission(other, f.terrain, f.plan);
+  const mission::MissionResult c = fly_mission(other, f.terrain, f.plan);
   EXPECT_NE(a.trajectories[500].position_m, c.trajectories[500].position_m);
 }
 
@@ -122,16 +122,16 @@ TEST(MonteCarlo, ResultsDoNotDependOnTheNumberOfThreads) {
 }
 
 TEST(Statistics, WilsonIntervalsMatchTheFormula) {
-  const Interval none = wilson_interval(0, 10);
+  const mission::Interval none = mission::wilson_interval(0, 10);
   EXPECT_NEAR(none.low, 0.0, 1e-12);
   EXPECT_NEAR(none.high, 0.2775, 1e-4);
-  const Interval half = wilson_interval(5, 10);
+  const mission::Interval half = mission::wilson_interval(5, 10);
   EXPECT_NEAR(half.low, 0.2366, 1e-4);
   EXPECT_NEAR(half.high, 0.7634, 1e-4);
-  const Interval all = wilson_interval(200, 200);
+  const mission::Interval all = mission::wilson_interval(200, 200);
   EXPECT_NEAR(all.low, 0.9812, 1e-4);
   EXPECT_NEAR(all.high, 1.0, 1e-12);
-  const Percentiles p = percentiles({5, 1, 4, 2, 3});
+  const mission::Percentiles p = mission::percentiles({5, 1, 4, 2, 3});
   EXPECT_DOUBLE_EQ(p.median, 3.0);
   EXPECT_DOUBLE_EQ(p.max, 5.0);
 }

@@ -8,32 +8,33 @@
 #include <string>
 
 #include "core/types.hpp"
+#include "mission/scenario.hpp"
+#include "mission/stage_inputs.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/mission_problem.hpp"
-#include "sim/scenario.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::sim::test {
 
 struct Fixture {
-  Scenario scenario;
+  mission::Scenario scenario;
   std::shared_ptr<const world::Terrain> terrain;
   planning::GlobalPlan plan;
 };
 
 // Two UAVs cross a hill to two targets 600 m away (wind 1.1 m/s with gusts, 5 % message loss);
 // with_threat adds a threat that crosses their routes. Sets `terrain`; the scenario is valid.
-inline Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain, bool with_threat) {
+inline mission::Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain,
+                                        bool with_threat) {
   world::PeakTerrainConfig peaks;
   peaks.peaks = {{350, 300, 60, 120, 120}};
   terrain = std::make_shared<world::PeakTerrain>(peaks);
-  Scenario s;
+  mission::Scenario s;
   s.name = "small";
   s.seed = 7;
   s.area = {0, 800, 0, 800};
   const Vec3 starts[] = {{100, 100, 60}, {100, 150, 60}};
   for (int i = 0; i < 2; ++i) {
-    UavSpec u;
+    mission::UavSpec u;
     u.name = "u" + std::to_string(i);
     u.start_position_m = starts[i];
     u.start_heading_rad = kPi / 4;
@@ -53,8 +54,8 @@ inline Scenario small_scenario(std::shared_ptr<const world::Terrain>& terrain, b
 inline Fixture small_mission(bool with_threat) {
   Fixture f;
   f.scenario = small_scenario(f.terrain, with_threat);
-  f.plan = planning::plan_mission(make_planning_problem(f.scenario, f.terrain),
-                                  make_planner_options(f.scenario));
+  f.plan = planning::plan_mission(mission::make_planning_problem(f.scenario, f.terrain),
+                                  mission::make_planner_options(f.scenario));
   EXPECT_EQ(f.plan.status, planning::GlobalPlanStatus::kPlanned) << f.plan.message;
   return f;
 }

@@ -12,21 +12,20 @@
 // so a fast row that fell back is never mistaken for a fast optimization.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "mission/statistics.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/statistics.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 
 struct PlanBenchmarkOptions {
-  int repeats = 5;                          ///< timed plans of the base problem (≥ 1)
+  int repeats = 5;  ///< timed plans of the base problem (≥ 1)
   std::vector<int> uav_counts = {3, 10, 30};
   std::vector<int> waypoint_counts = {100, 200};
-  int scaling_repeats = 1;                  ///< timed plans per scaling row (0: no table)
+  int scaling_repeats = 1;  ///< timed plans per scaling row (0: no table)
   /// Optimizer time budget per plan in the scaling rows (TrajectoryOptimizerOptions::
   /// time_budget_s); a row that runs out says so (path_source, optimizer_status).
   double scaling_time_budget_s = 60.0;
@@ -34,8 +33,8 @@ struct PlanBenchmarkOptions {
 
 /// One plan_mission call, summarized.
 struct PlanRun {
-  double plan_s = 0.0;       ///< wall clock of plan_mission
-  double plan_cpu_s = 0.0;   ///< process CPU time of plan_mission
+  double plan_s = 0.0;      ///< wall clock of plan_mission
+  double plan_cpu_s = 0.0;  ///< process CPU time of plan_mission
   planning::GlobalPlan plan;
 };
 
@@ -43,12 +42,12 @@ struct PlanScalingRow {
   int uavs = 0;
   int waypoints = 0;
   int targets = 0;
-  Percentiles plan_s;
-  Percentiles plan_cpu_s;
-  double optimizer_s = 0.0;        ///< stage 3 of the last run (setup, Ipopt, its validation)
-  double ipopt_s = 0.0;            ///< Ipopt alone, all solves
+  mission::Percentiles plan_s;
+  mission::Percentiles plan_cpu_s;
+  double optimizer_s = 0.0;  ///< stage 3 of the last run (setup, Ipopt, its validation)
+  double ipopt_s = 0.0;      ///< Ipopt alone, all solves
   int ipopt_iterations = 0;
-  int solves = 0;                  ///< 1 + refinement rounds
+  int solves = 0;  ///< 1 + refinement rounds
   int variables = 0;
   int constraints = 0;
   int separation_rows = 0;
@@ -65,16 +64,16 @@ struct PlanScalingRow {
   double guess_separation_after_m = 0.0;
   int guess_conflicts_before = 0;
   int guess_conflicts_after = 0;
-  double min_clearance_m = 0.0;    ///< dense validation of the flown references
+  double min_clearance_m = 0.0;  ///< dense validation of the flown references
   double min_separation_m = 0.0;
-  double stage_s[5] = {};          ///< allocation, initial paths, optimization, timing, validation
+  double stage_s[5] = {};  ///< allocation, initial paths, optimization, timing, validation
   nlohmann::json to_json() const;
 };
 
 struct PlanBenchmarkReport {
-  PlanScalingRow base;                 ///< the base problem over `repeats` runs
+  PlanScalingRow base;  ///< the base problem over `repeats` runs
   std::vector<PlanScalingRow> scaling;
-  nlohmann::json to_json() const;     ///< {"plan_s": {...}, "plan_cpu_s", ..., "scaling": [...]}
+  nlohmann::json to_json() const;  ///< {"plan_s": {...}, "plan_cpu_s", ..., "scaling": [...]}
 };
 
 /// Times plan_mission once on `problem` with `options`.
@@ -86,10 +85,10 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
                             const planning::GlobalPlannerOptions& options, int runs);
 
 /// The whole benchmark on a base problem and its planner options (e.g. the default scenario's,
-/// from make_planning_problem and make_planner_options). Throws InputError on bad options or a
-/// size scaled_team cannot build.
+/// from mission::make_planning_problem and mission::make_planner_options). Throws InputError on bad
+/// options or a size scaled_team cannot build.
 PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& base,
                                        const planning::GlobalPlannerOptions& base_options,
                                        const PlanBenchmarkOptions& options = {});
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -1,15 +1,15 @@
-#include "sim/truth_world.hpp"
+#include "mission/truth_world.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 namespace {
 
-Scenario one_uav_scenario() {
-  Scenario s;
-  UavSpec u;
+mission::Scenario one_uav_scenario() {
+  mission::Scenario s;
+  mission::UavSpec u;
   u.name = "a";
   u.start_position_m = Vec3(100, 100, 100);
   u.start_heading_rad = 0.0;
@@ -28,7 +28,7 @@ std::shared_ptr<const world::Terrain> flat() {
 }
 
 TEST(TruthWorld, SteadyFlightDriftsWithTheWindAndReachesEveryTimeExactly) {
-  TruthWorld world(one_uav_scenario(), flat());
+  mission::TruthWorld world(one_uav_scenario(), flat());
   world.advance_to(10.0037);  // not a multiple of the 5 ms step
   EXPECT_DOUBLE_EQ(world.time_s(), 10.0037);
   // Constant speed 10 m/s east plus wind (1, 2): exact for RK4 on constant velocity.
@@ -38,9 +38,9 @@ TEST(TruthWorld, SteadyFlightDriftsWithTheWindAndReachesEveryTimeExactly) {
 }
 
 TEST(TruthWorld, TruthLagsAreTheControllersScaledForModelMismatch) {
-  Scenario s = one_uav_scenario();
+  mission::Scenario s = one_uav_scenario();
   s.simulation.truth_time_constant_scale = 2.0;
-  TruthWorld world(s, flat());
+  mission::TruthWorld world(s, flat());
   world.set_command(0, vehicle::Input(14.0, 0.0, 0.0));
   const double tau_truth = 2.0 * s.uavs[0].vehicle.tau_v_s;
   world.advance_to(tau_truth);
@@ -49,9 +49,9 @@ TEST(TruthWorld, TruthLagsAreTheControllersScaledForModelMismatch) {
 }
 
 TEST(TruthWorld, PositionNoiseHasTheConfiguredSpreadAndIsSeeded) {
-  Scenario s = one_uav_scenario();
+  mission::Scenario s = one_uav_scenario();
   s.simulation.position_noise_m = 0.5;
-  TruthWorld a(s, flat()), b(s, flat());
+  mission::TruthWorld a(s, flat()), b(s, flat());
   double sum2 = 0.0;
   constexpr int kN = 20000;
   for (int i = 0; i < kN; ++i) {
@@ -64,14 +64,14 @@ TEST(TruthWorld, PositionNoiseHasTheConfiguredSpreadAndIsSeeded) {
 }
 
 TEST(TruthWorld, ThreatIsSensedWhileActiveAndInRange) {
-  Scenario s = one_uav_scenario();
+  mission::Scenario s = one_uav_scenario();
   world::Threat t;
   t.centre_m = Vec3(300, 100, 100);
   t.radius_m = 20.0;
   t.appear_s = 1.0;
   t.vanish_s = 100.0;
   s.threats.push_back(t);
-  TruthWorld world(s, flat());
+  mission::TruthWorld world(s, flat());
   std::vector<int> sensed;
   world.sensed_threats(0, sensed);
   EXPECT_TRUE(sensed.empty());  // not yet appeared, and 180 m from its surface
@@ -82,4 +82,4 @@ TEST(TruthWorld, ThreatIsSensedWhileActiveAndInRange) {
 }
 
 }  // namespace
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

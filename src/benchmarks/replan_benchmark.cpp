@@ -1,4 +1,4 @@
-#include "sim/replan_benchmark.hpp"
+#include "benchmarks/replan_benchmark.hpp"
 
 #include <fmt/format.h>
 #include <time.h>
@@ -12,7 +12,7 @@
 #include "core/error.hpp"
 #include "core/random.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 double thread_cpu_s() {
@@ -41,10 +41,10 @@ nlohmann::json ReplanBenchmarkReport::to_json() const {
           {"optimized", optimized},
           {"status_counts", counts},
           {"first_messages", first_messages},
-          {"replan_ms", sim::to_json(replan_ms)},
-          {"replan_cpu_ms", sim::to_json(replan_cpu_ms)},
-          {"ipopt_iterations", sim::to_json(ipopt_iterations)},
-          {"solves", sim::to_json(solves)},
+          {"replan_ms", mission::to_json(replan_ms)},
+          {"replan_cpu_ms", mission::to_json(replan_cpu_ms)},
+          {"ipopt_iterations", mission::to_json(ipopt_iterations)},
+          {"solves", mission::to_json(solves)},
           {"min_threat_distance_m", min_threat_distance_m},
           {"min_separation_m", min_separation_m},
           {"min_terrain_clearance_m", min_terrain_clearance_m},
@@ -145,12 +145,12 @@ ReplanBenchmarkReport run_replan_benchmark(const planning::GlobalPlanningProblem
     }
   }
   report.cases = options.cases;
-  report.replan_ms = percentiles(wall_ms);
-  report.replan_cpu_ms = percentiles(cpu_ms);
-  report.ipopt_iterations = percentiles(iterations);
-  report.solves = percentiles(solves);
+  report.replan_ms = mission::percentiles(wall_ms);
+  report.replan_cpu_ms = mission::percentiles(cpu_ms);
+  report.ipopt_iterations = mission::percentiles(iterations);
+  report.solves = mission::percentiles(solves);
   report.mean_detour_ratio = replanned > 0 ? detour_sum / replanned : 0.0;
   return report;
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -1,8 +1,10 @@
-#include "sim/mission_metrics.hpp"
+#include "mission/mission_metrics.hpp"
+
+#include <fmt/format.h>
 
 #include <cmath>
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 namespace {
 
 /// JSON has no infinity: "never came close" (one UAV, no threat) is written as null.
@@ -75,4 +77,16 @@ nlohmann::json to_json(const MissionMetrics& m) {
           {"safe", m.safe()}};
 }
 
-}  // namespace ridgeline::sim
+std::string trajectories_csv(const std::vector<TrajectoryRow>& rows, const Scenario& scenario) {
+  std::string out = "t,uav,x,y,z,ref_x,ref_y,ref_z,v,psi,w\n";
+  out.reserve(rows.size() * 96);
+  for (const TrajectoryRow& r : rows) {
+    out += fmt::format("{:.2f},{},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.3f}\n",
+                       r.t_s, scenario.uavs[static_cast<std::size_t>(r.uav)].name, r.position_m.x(),
+                       r.position_m.y(), r.position_m.z(), r.reference_m.x(), r.reference_m.y(),
+                       r.reference_m.z(), r.speed_m_s, r.heading_rad, r.climb_rate_m_s);
+  }
+  return out;
+}
+
+}  // namespace ridgeline::mission

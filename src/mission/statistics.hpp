@@ -1,11 +1,10 @@
 // Small statistics for reports: percentiles of a sample and Wilson score intervals.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 struct Percentiles {
   double median = 0.0, p90 = 0.0, p99 = 0.0, max = 0.0;
@@ -21,4 +20,4 @@ struct Interval {
 };
 Interval wilson_interval(long long successes, long long trials, double z = 1.96);
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

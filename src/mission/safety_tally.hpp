@@ -8,12 +8,12 @@
 #include <utility>
 #include <vector>
 
-#include "sim/mission_metrics.hpp"
-#include "sim/truth_world.hpp"
+#include "mission/mission_metrics.hpp"
+#include "mission/truth_world.hpp"
 #include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 class SafetyTally {
  public:
@@ -37,4 +37,4 @@ class SafetyTally {
   std::set<std::pair<int, int>> encounters_, intrusions_, margin_violations_, close_pairs_;
 };
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

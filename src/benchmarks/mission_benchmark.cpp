@@ -1,4 +1,4 @@
-#include "sim/mission_benchmark.hpp"
+#include "benchmarks/mission_benchmark.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,10 +6,10 @@
 #include "core/error.hpp"
 #include "sim/mission.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
-double median(std::vector<double> v) { return percentiles(std::move(v)).median; }
+double median(std::vector<double> v) { return mission::percentiles(std::move(v)).median; }
 
 nlohmann::json run_to_json(const MissionBenchmarkRun& r) {
   return {{"sim_time_s", r.sim_time_s},
@@ -39,19 +39,19 @@ nlohmann::json MissionBenchmarkReport::to_json() const {
           {"runs", runs_json}};
 }
 
-MissionBenchmarkReport run_mission_benchmark(const Scenario& scenario,
+MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
                                              std::shared_ptr<const world::Terrain> terrain,
                                              const planning::GlobalPlan& plan,
                                              const MissionBenchmarkOptions& options) {
   if (options.repeats < 1) throw InputError("repeats", "must be at least 1");
   MissionBenchmarkReport report;
   report.uavs = static_cast<int>(scenario.uavs.size());
-  MissionOptions mission_options;  // records trajectories, as `ridgeline run` does
+  sim::MissionOptions mission_options;  // records trajectories, as `ridgeline run` does
   std::vector<double> wall, cpu, rtf_wall, rtf_cpu;
   std::vector<double> first_path_lengths;
   for (int k = 0; k < options.repeats; ++k) {
-    const MissionResult flown = fly_mission(scenario, terrain, plan, mission_options);
-    const MissionMetrics& m = flown.metrics;
+    const mission::MissionResult flown = sim::fly_mission(scenario, terrain, plan, mission_options);
+    const mission::MissionMetrics& m = flown.metrics;
     MissionBenchmarkRun r;
     r.sim_time_s = m.sim_time_s;
     r.wall_time_s = m.wall_time_s;
@@ -61,7 +61,7 @@ MissionBenchmarkReport run_mission_benchmark(const Scenario& scenario,
     r.mpc_step_us = m.mpc_solve_us;
     r.mpc_step_cpu_us = m.mpc_solve_cpu_us;
     std::vector<double> lengths;
-    for (const UavMetrics& u : m.uavs) lengths.push_back(u.path_length_m);
+    for (const mission::UavMetrics& u : m.uavs) lengths.push_back(u.path_length_m);
     if (k == 0) {
       first_path_lengths = lengths;
     } else {
@@ -82,4 +82,4 @@ MissionBenchmarkReport run_mission_benchmark(const Scenario& scenario,
   return report;
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

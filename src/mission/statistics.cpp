@@ -1,9 +1,9 @@
-#include "sim/statistics.hpp"
+#include "mission/statistics.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 Percentiles percentiles(std::vector<double> v) {
   Percentiles p;
@@ -34,4 +34,4 @@ Interval wilson_interval(long long successes, long long trials, double z) {
   return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

@@ -1,8 +1,8 @@
-#include "sim/truth_world.hpp"
+#include "mission/truth_world.hpp"
 
 #include <algorithm>
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 namespace {
 constexpr std::uint64_t kPositionNoiseStream = 11;
 }  // namespace
@@ -26,7 +26,8 @@ TruthWorld::TruthWorld(const Scenario& scenario, std::shared_ptr<const world::Te
     truth.tau_omega_s *= scale;
     truth.tau_w_s *= scale;
     const vehicle::Input hold(spec.start_speed_m_s, 0.0, 0.0);
-    uavs_.push_back(TruthUav{s, hold, truth, spec.sensor_range_m, world::WindSensor(scenario.wind, i)});
+    uavs_.push_back(
+        TruthUav{s, hold, truth, spec.sensor_range_m, world::WindSensor(scenario.wind, i)});
   }
 }
 
@@ -93,4 +94,4 @@ void TruthWorld::sensed_threats(int uav, std::vector<int>& out) const {
   }
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

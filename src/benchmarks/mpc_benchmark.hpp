@@ -9,17 +9,16 @@
 // solved by Ipopt, outside the timed region, for the speed ratio and an accuracy check.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 
-#include <nlohmann/json.hpp>
+#include "mission/statistics.hpp"
 
-#include "sim/statistics.hpp"
-
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 
 struct MpcBenchmarkOptions {
-  int steps = 3000;       ///< control steps (60 s at 50 Hz)
-  int ipopt_every = 10;   ///< compare with Ipopt on every n-th QP (0: never)
+  int steps = 3000;      ///< control steps (60 s at 50 Hz)
+  int ipopt_every = 10;  ///< compare with Ipopt on every n-th QP (0: never)
   /// When set, every step's QP is appended to this RLQP file (outside the timed region), for
   /// `ridgeline bench qp --instances`.
   std::string dump_qps_path;
@@ -27,25 +26,25 @@ struct MpcBenchmarkOptions {
 
 struct MpcBenchmarkReport {
   int steps = 0;
-  Percentiles step_us;          ///< whole MPC step, wall clock
-  Percentiles step_cpu_us;      ///< the same in thread CPU time (robust to preemption)
-  Percentiles qp_us;            ///< our QP solve inside the step
-  Percentiles qp_iterations;
-  std::string qp_method;        ///< the tracker's QpSettings::method
-  int qp_fallbacks = 0;         ///< active-set solves the interior point had to answer
-  int qps_dumped = 0;           ///< QPs written to dump_qps_path
-  int not_solved = 0;           ///< steps whose QP did not reach kSolved
-  double max_slack_m = 0.0;     ///< largest soft-constraint violation the plans accepted
+  mission::Percentiles step_us;      ///< whole MPC step, wall clock
+  mission::Percentiles step_cpu_us;  ///< the same in thread CPU time (robust to preemption)
+  mission::Percentiles qp_us;        ///< our QP solve inside the step
+  mission::Percentiles qp_iterations;
+  std::string qp_method;     ///< the tracker's QpSettings::method
+  int qp_fallbacks = 0;      ///< active-set solves the interior point had to answer
+  int qps_dumped = 0;        ///< QPs written to dump_qps_path
+  int not_solved = 0;        ///< steps whose QP did not reach kSolved
+  double max_slack_m = 0.0;  ///< largest soft-constraint violation the plans accepted
   double soft_rows_mean = 0.0;
   int ipopt_compared = 0;
-  double ipopt_qp_us_median = 0.0;       ///< Ipopt on the same QPs
+  double ipopt_qp_us_median = 0.0;  ///< Ipopt on the same QPs
   double ours_on_compared_us_median = 0.0;
-  double ipopt_over_ours_ratio = 0.0;    ///< ipopt median / ours median on the compared QPs
-  double max_rel_objective_gap = 0.0;    ///< |J_ours − J_ipopt| / max(1, |J_ipopt|)
+  double ipopt_over_ours_ratio = 0.0;  ///< ipopt median / ours median on the compared QPs
+  double max_rel_objective_gap = 0.0;  ///< |J_ours − J_ipopt| / max(1, |J_ipopt|)
 
   nlohmann::json to_json() const;
 };
 
 MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options = {});
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -1,4 +1,4 @@
-#include "sim/plan_benchmark.hpp"
+#include "benchmarks/plan_benchmark.hpp"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 #include "core/error.hpp"
 #include "planning/team_scenarios.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 double process_cpu_s() { return process_cpu_time_s(); }
@@ -55,8 +55,8 @@ nlohmann::json PlanScalingRow::to_json() const {
 nlohmann::json PlanBenchmarkReport::to_json() const {
   nlohmann::json j = {
       {"case", fmt::format("default scenario, {} UAVs x {} waypoints", base.uavs, base.waypoints)},
-      {"plan_s", sim::to_json(base.plan_s)},
-      {"plan_cpu_s", sim::to_json(base.plan_cpu_s)},
+      {"plan_s", mission::to_json(base.plan_s)},
+      {"plan_cpu_s", mission::to_json(base.plan_cpu_s)},
       {"base", base.to_json()}};
   j["scaling"] = nlohmann::json::array();
   for (const PlanScalingRow& row : scaling) j["scaling"].push_back(row.to_json());
@@ -88,8 +88,8 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
     wall.push_back(run.plan_s);
     cpu.push_back(run.plan_cpu_s);
   }
-  row.plan_s = percentiles(wall);
-  row.plan_cpu_s = percentiles(cpu);
+  row.plan_s = mission::percentiles(wall);
+  row.plan_cpu_s = mission::percentiles(cpu);
   const planning::GlobalPlan& plan = run.plan;
   row.status = std::string(planning::to_string(plan.status));
   row.path_source = std::string(planning::to_string(plan.path_source));
@@ -149,4 +149,4 @@ PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& ba
   return report;
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

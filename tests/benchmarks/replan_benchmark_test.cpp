@@ -2,7 +2,7 @@
 // replan`, never asserted in a test): every case is counted under exactly one status, times
 // are reported only over the cases that ran the optimizer, the re-planned cases keep their
 // margins, and the same seed gives the same cases.
-#include "sim/replan_benchmark.hpp"
+#include "benchmarks/replan_benchmark.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include "core/error.hpp"
 #include "planning/team_scenarios.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 planning::GlobalPlanningProblem small_problem() {
@@ -72,4 +72,4 @@ TEST(ReplanBenchmark, RejectsBadOptions) {
 }
 
 }  // namespace
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -9,12 +9,12 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
+#include "mission/scenario.hpp"
+#include "mission/statistics.hpp"
 #include "planning/global_planner.hpp"
-#include "sim/scenario.hpp"
-#include "sim/statistics.hpp"
 #include "world/terrain.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 
 struct MissionBenchmarkOptions {
   int repeats = 5;  ///< identical flights; figures are their medians
@@ -27,8 +27,8 @@ struct MissionBenchmarkRun {
   double cpu_time_s = 0.0;
   bool safe = false;
   bool mission_complete = false;
-  Percentiles mpc_step_us;
-  Percentiles mpc_step_cpu_us;
+  mission::Percentiles mpc_step_us;
+  mission::Percentiles mpc_step_cpu_us;
 };
 
 struct MissionBenchmarkReport {
@@ -46,9 +46,9 @@ struct MissionBenchmarkReport {
 
 /// Flies `plan` (which must be planned) `options.repeats` times and reports the speed.
 /// Throws InputError for repeats < 1 or a plan that is not planned.
-MissionBenchmarkReport run_mission_benchmark(const Scenario& scenario,
+MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
                                              std::shared_ptr<const world::Terrain> terrain,
                                              const planning::GlobalPlan& plan,
                                              const MissionBenchmarkOptions& options = {});
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

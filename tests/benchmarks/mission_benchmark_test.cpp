@@ -1,17 +1,17 @@
 // The closed-loop speed benchmark: its flights are the mission's own (deterministic, safe),
 // and its CPU and wall figures are consistent with each other and with the flights.
-#include "sim/mission_benchmark.hpp"
+#include "benchmarks/mission_benchmark.hpp"
 
 #include <gtest/gtest.h>
 
 #include "core/error.hpp"
 #include "support/small_mission.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 TEST(MissionBenchmark, RepeatedFlightsAreIdenticalAndTheFactorsFollowFromTheirTimes) {
-  const test::Fixture f = test::small_mission(true);
+  const sim::test::Fixture f = sim::test::small_mission(true);
   const MissionBenchmarkReport r = run_mission_benchmark(f.scenario, f.terrain, f.plan, {3});
   ASSERT_EQ(r.runs.size(), 3u);
   EXPECT_TRUE(r.deterministic);
@@ -41,7 +41,7 @@ TEST(MissionBenchmark, RepeatedFlightsAreIdenticalAndTheFactorsFollowFromTheirTi
 }
 
 TEST(MissionBenchmark, ZeroRepeatsIsAnErrorNamingTheField) {
-  const test::Fixture f = test::small_mission(false);
+  const sim::test::Fixture f = sim::test::small_mission(false);
   try {
     run_mission_benchmark(f.scenario, f.terrain, f.plan, {0});
     FAIL() << "expected InputError";
@@ -51,4 +51,4 @@ TEST(MissionBenchmark, ZeroRepeatsIsAnErrorNamingTheField) {
 }
 
 }  // namespace
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -22,11 +22,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "mission/statistics.hpp"
 #include "planning/global_planner.hpp"
 #include "planning/local_replan.hpp"
-#include "sim/statistics.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 
 struct ReplanBenchmarkOptions {
   int cases = 200;         ///< randomized threats (≥ 1)
@@ -37,13 +37,13 @@ struct ReplanBenchmarkOptions {
 
 struct ReplanBenchmarkReport {
   int cases = 0;
-  int optimized = 0;                         ///< cases that ran Ipopt
-  std::map<std::string, int> status_counts;  ///< LocalReplanStatus text → cases
+  int optimized = 0;                                  ///< cases that ran Ipopt
+  std::map<std::string, int> status_counts;           ///< LocalReplanStatus text → cases
   std::map<std::string, std::string> first_messages;  ///< failure status → its first message
-  Percentiles replan_ms;                     ///< wall clock, over the optimized cases
-  Percentiles replan_cpu_ms;                 ///< thread CPU time, over the optimized cases
-  Percentiles ipopt_iterations;
-  Percentiles solves;
+  mission::Percentiles replan_ms;                     ///< wall clock, over the optimized cases
+  mission::Percentiles replan_cpu_ms;                 ///< thread CPU time, over the optimized cases
+  mission::Percentiles ipopt_iterations;
+  mission::Percentiles solves;
   double min_threat_distance_m = 0.0;  ///< over replanned cases (≥ r_safe by the dense check)
   double min_separation_m = 0.0;       ///< over replanned cases
   double min_terrain_clearance_m = 0.0;
@@ -59,4 +59,4 @@ ReplanBenchmarkReport run_replan_benchmark(const planning::GlobalPlanningProblem
                                            const planning::GlobalPlannerOptions& planner,
                                            const ReplanBenchmarkOptions& options = {});
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

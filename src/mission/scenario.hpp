@@ -18,7 +18,7 @@
 #include "world/threat.hpp"
 #include "world/wind.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 /// Rectangular operating area in the local ENU frame.
 struct Area {
@@ -58,7 +58,7 @@ struct TerrainSource {
   /// geodetic origin it was fitted around (none: the DEM's own south-west-corner frame).
   bool included_fit_report = false;
   std::optional<GeodeticOrigin> included_fit_origin;
-  std::string dem_path;            ///< kDem, resolved against the scenario file's folder
+  std::string dem_path;  ///< kDem, resolved against the scenario file's folder
   DemModel dem_model = DemModel::kRaster;
   int dem_fit_peaks = 8;
   world::PeakCombination dem_fit_combination = world::PeakCombination::kMax;
@@ -76,20 +76,20 @@ struct UavSpec {
 struct InspectionTarget {
   std::string name;
   Vec3 position_m = Vec3::Zero();
-  int priority = 1;                  ///< higher is visited first when allocation must choose
-  double inspection_radius_m = 30.0; ///< a pass this close (3-D) counts as an inspection
+  int priority = 1;                   ///< higher is visited first when allocation must choose
+  double inspection_radius_m = 30.0;  ///< a pass this close (3-D) counts as an inspection
 };
 
 /// Parameters of the incremental MPC tracker (DESIGN §3).
 struct MpcConfig {
-  double control_period_s = 0.02;    ///< 50 Hz
-  double prediction_step_s = 0.1;    ///< Δt of the prediction model, may exceed the period
-  int horizon_steps = 40;            ///< Np
-  int control_horizon_steps = 10;    ///< Nc ≤ Np
-  double position_weight = 1.0;      ///< Q on each position output, per m²
+  double control_period_s = 0.02;  ///< 50 Hz
+  double prediction_step_s = 0.1;  ///< Δt of the prediction model, may exceed the period
+  int horizon_steps = 40;          ///< Np
+  int control_horizon_steps = 10;  ///< Nc ≤ Np
+  double position_weight = 1.0;    ///< Q on each position output, per m²
   Vec3 move_weights = Vec3(2.0, 200.0, 2.0);  ///< R on Δv_c, Δω_c, Δw_c per prediction step
   Vec3 max_moves = Vec3(0.4, 0.15, 0.4);      ///< |Δu| per prediction step (rate × Δt_p)
-  double slack_weight = 1e4;         ///< ρ₁: linear penalty per metre of soft-row slack
+  double slack_weight = 1e4;                  ///< ρ₁: linear penalty per metre of soft-row slack
 };
 
 /// Parameters of the global cooperative planner (DESIGN §5, eq. 14–24).
@@ -106,8 +106,8 @@ struct PlannerConfig {
   double lambda_collision = 10.0;                ///< λ2
   /// Target allocation J = λ·max_i C_i + Σ_i C_i + β·Σ_j π_j A_j (target_allocation.hpp):
   /// a larger λ spreads the targets over more UAVs (shorter mission, more total range).
-  double allocation_makespan_weight = 1.0;       ///< λ ≥ 0
-  double allocation_priority_weight = 0.1;       ///< β ≥ 0
+  double allocation_makespan_weight = 1.0;  ///< λ ≥ 0
+  double allocation_priority_weight = 0.1;  ///< β ≥ 0
   /// On board: a UAV re-plans a threat or neighbour conflict with the local optimizer
   /// (planning/local_replan.hpp, densely validated; the geometric detour stays the fallback)
   /// instead of only the geometric detour (swarm::AgentOptions::optimizer_replan). YAML
@@ -152,4 +152,4 @@ struct Scenario {
 /// found, each naming its field path; an empty list means the scenario is valid.
 std::vector<InputError> validate(const Scenario& scenario, const world::Terrain& terrain);
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

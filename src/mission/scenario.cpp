@@ -1,11 +1,11 @@
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
+
+#include <fmt/format.h>
 
 #include <cmath>
 #include <set>
 
-#include <fmt/format.h>
-
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 namespace {
 
 // Collects problems with their field paths.
@@ -43,8 +43,7 @@ class Checker {
     if (finite(field, value) && value < 0.0)
       fail(field, fmt::format("must not be negative, got {}", value));
   }
-  void ordered(const std::string& min_field, double min, const std::string& max_field,
-               double max) {
+  void ordered(const std::string& min_field, double min, const std::string& max_field, double max) {
     if (finite(min_field, min) && finite(max_field, max) && min >= max)
       fail(min_field, fmt::format("{} must be below {} ({})", min, max_field, max));
   }
@@ -77,9 +76,9 @@ void check_placement(Checker& c, const std::string& field, const Vec3& p, const 
                      const world::Terrain& terrain) {
   if (!c.finite(field, p)) return;
   if (!s.area.contains(p.x(), p.y())) {
-    c.fail(field, fmt::format("({:.1f}, {:.1f}) is outside the area x [{}, {}], y [{}, {}]",
-                              p.x(), p.y(), s.area.x_min_m, s.area.x_max_m, s.area.y_min_m,
-                              s.area.y_max_m));
+    c.fail(field,
+           fmt::format("({:.1f}, {:.1f}) is outside the area x [{}, {}], y [{}, {}]", p.x(), p.y(),
+                       s.area.x_min_m, s.area.x_max_m, s.area.y_min_m, s.area.y_max_m));
     return;
   }
   if (p.z() < s.safety.altitude.min_m || p.z() > s.safety.altitude.max_m) {
@@ -130,9 +129,8 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
     c.finite(path + ".start.heading_deg", u.start_heading_rad);
     if (c.finite(path + ".start.speed_m_s", u.start_speed_m_s) &&
         (u.start_speed_m_s < 0.0 || u.start_speed_m_s > u.vehicle.max_speed_m_s())) {
-      c.fail(path + ".start.speed_m_s",
-             fmt::format("{} m/s is outside [0, {}] m/s", u.start_speed_m_s,
-                         u.vehicle.max_speed_m_s()));
+      c.fail(path + ".start.speed_m_s", fmt::format("{} m/s is outside [0, {}] m/s",
+                                                    u.start_speed_m_s, u.vehicle.max_speed_m_s()));
     }
     c.positive(path + ".sensor_range_m", u.sensor_range_m);
     for (std::size_t j = 0; j < i; ++j) {
@@ -165,15 +163,13 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
   c.positive("mpc.prediction_step_s", m.prediction_step_s);
   if (std::isfinite(m.prediction_step_s) && std::isfinite(m.control_period_s) &&
       m.prediction_step_s < m.control_period_s) {
-    c.fail("mpc.prediction_step_s",
-           fmt::format("{} s is shorter than the control period {} s", m.prediction_step_s,
-                       m.control_period_s));
+    c.fail("mpc.prediction_step_s", fmt::format("{} s is shorter than the control period {} s",
+                                                m.prediction_step_s, m.control_period_s));
   }
   if (m.horizon_steps < 1) c.fail("mpc.horizon_steps", "must be at least 1");
   if (m.control_horizon_steps < 1 || m.control_horizon_steps > m.horizon_steps) {
-    c.fail("mpc.control_horizon_steps",
-           fmt::format("must be in [1, horizon_steps = {}], got {}", m.horizon_steps,
-                       m.control_horizon_steps));
+    c.fail("mpc.control_horizon_steps", fmt::format("must be in [1, horizon_steps = {}], got {}",
+                                                    m.horizon_steps, m.control_horizon_steps));
   }
   c.positive("mpc.position_weight", m.position_weight);
   for (int k = 0; k < 3; ++k) {
@@ -205,9 +201,8 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
   c.positive("simulation.truth_rate_hz", sim.truth_rate_hz);
   if (std::isfinite(sim.truth_rate_hz) && std::isfinite(m.control_period_s) &&
       sim.truth_rate_hz * m.control_period_s < 1.0 - 1e-9) {
-    c.fail("simulation.truth_rate_hz",
-           fmt::format("{} Hz is slower than the control rate {} Hz", sim.truth_rate_hz,
-                       1.0 / m.control_period_s));
+    c.fail("simulation.truth_rate_hz", fmt::format("{} Hz is slower than the control rate {} Hz",
+                                                   sim.truth_rate_hz, 1.0 / m.control_period_s));
   }
   c.positive("simulation.message_rate_hz", sim.message_rate_hz);
   c.positive("simulation.truth_time_constant_scale", sim.truth_time_constant_scale);
@@ -219,4 +214,4 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
   return c.problems;
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

@@ -1,16 +1,15 @@
-#include "sim/qp_benchmark.hpp"
+#include "benchmarks/qp_benchmark.hpp"
 
 #include <time.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include <Eigen/Cholesky>
-
 #include "qp/ipopt_reference.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -49,8 +48,8 @@ nlohmann::json QpBenchmarkReport::to_json() const {
   return {{"count", count},
           {"method", method},
           {"repeats", repeats},
-          {"solve_us", sim::to_json(solve_us)},
-          {"solve_cpu_us", sim::to_json(solve_cpu_us)},
+          {"solve_us", mission::to_json(solve_us)},
+          {"solve_cpu_us", mission::to_json(solve_cpu_us)},
           {"iterations", {{"median", iterations.median}, {"max", iterations.max}}},
           {"failures", {{"count", failures.size()}, {"indices", failures}}},
           {"fallbacks", fallbacks},
@@ -60,8 +59,8 @@ nlohmann::json QpBenchmarkReport::to_json() const {
           {"reference", reference},
           {"reference_failures", reference_failures},
           {"floor_llt_us", {{"median", floor_llt_us_median}}},
-          {"median_over_floor", floor_llt_us_median > 0.0 ? solve_us.median / floor_llt_us_median
-                                                           : 0.0},
+          {"median_over_floor",
+           floor_llt_us_median > 0.0 ? solve_us.median / floor_llt_us_median : 0.0},
           {"p99_over_median", solve_us.median > 0.0 ? solve_us.p99 / solve_us.median : 0.0}};
 }
 
@@ -70,10 +69,10 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
   QpBenchmarkReport report;
   report.count = static_cast<int>(instances.size());
   report.method = std::string(qp::to_string(options.settings.method));
-  report.reference = options.reference == QpReference::kIpopt ? "ipopt tol 1e-10, bound_relax_factor 0"
-                     : options.reference == QpReference::kInteriorPoint
-                         ? "interior point tol 1e-10, cold"
-                         : "none";
+  report.reference =
+      options.reference == QpReference::kIpopt           ? "ipopt tol 1e-10, bound_relax_factor 0"
+      : options.reference == QpReference::kInteriorPoint ? "interior point tol 1e-10, cold"
+                                                         : "none";
   report.repeats = std::max(1, options.repeats);
   const std::size_t count = instances.size();
   std::vector<double> solve_us(count, qp::kInfinity), cpu_us(count), floor_us(count, qp::kInfinity);
@@ -142,11 +141,11 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
         std::max(report.max_rel_objective_gap, std::abs(objectives[k] - reference_objective) /
                                                    std::max(1.0, std::abs(reference_objective)));
   }
-  report.solve_us = percentiles(solve_us);
-  report.solve_cpu_us = percentiles(cpu_us);
-  report.iterations = percentiles(iterations);
-  report.floor_llt_us_median = percentiles(floor_us).median;
+  report.solve_us = mission::percentiles(solve_us);
+  report.solve_cpu_us = mission::percentiles(cpu_us);
+  report.iterations = mission::percentiles(iterations);
+  report.floor_llt_us_median = mission::percentiles(floor_us).median;
   return report;
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

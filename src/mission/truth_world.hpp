@@ -12,13 +12,13 @@
 #include <vector>
 
 #include "core/random.hpp"
-#include "sim/scenario.hpp"
+#include "mission/scenario.hpp"
 #include "vehicle/vehicle_model.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 #include "world/wind.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 class TruthWorld {
  public:
@@ -51,7 +51,9 @@ class TruthWorld {
   /// step may be shorter, so any t_s is reached exactly).
   void advance_to(double t_s);
 
-  const vehicle::State& true_state(int uav) const { return uavs_[static_cast<std::size_t>(uav)].state; }
+  const vehicle::State& true_state(int uav) const {
+    return uavs_[static_cast<std::size_t>(uav)].state;
+  }
   Vec3 true_position(int uav) const { return true_state(uav).head<3>(); }
   Vec3 true_wind(int uav) const;
   /// A state fix: the truth with N(0, σ²) noise on each position component.
@@ -90,4 +92,4 @@ class TruthWorld {
   Rng position_noise_rng_;
 };
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

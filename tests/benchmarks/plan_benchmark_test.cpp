@@ -1,7 +1,7 @@
 // The planner benchmark's bookkeeping (not its speed: speed is measured by `ridgeline bench
 // plan`, never asserted in a test): rows for the requested sizes, each saying honestly how its
 // plan ended, and the scaled teams it plans are the sizes it claims.
-#include "sim/plan_benchmark.hpp"
+#include "benchmarks/plan_benchmark.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include "core/error.hpp"
 #include "planning/team_scenarios.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 // The default scenario's team and targets on the default-like terrain, at a test-sized grid.
@@ -55,7 +55,8 @@ TEST(PlanBenchmark, ReportsOneRowPerSizeWithTheSizeItPlannedAndHowItEnded) {
     EXPECT_EQ(row.status, "planned") << row.message;
     // Whatever the optimizer did, the row says which paths fly, and a fallback gives its reason.
     if (row.path_source == "optimized") {
-      EXPECT_TRUE(row.optimizer_status == "solved" || row.optimizer_status == "solved after refinement")
+      EXPECT_TRUE(row.optimizer_status == "solved" ||
+                  row.optimizer_status == "solved after refinement")
           << row.optimizer_status;
       EXPECT_GT(row.ipopt_iterations, 0);
       EXPECT_LT(row.objective, row.initial_objective);
@@ -105,4 +106,4 @@ TEST(PlanBenchmark, BadOptionsNameTheField) {
 }
 
 }  // namespace
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -11,15 +11,14 @@
 // the solver's own slow instances. The thread CPU time of the first pass is reported too.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "mission/statistics.hpp"
 #include "qp/qp_solver.hpp"
-#include "sim/statistics.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 
 enum class QpReference {
   kIpopt,          ///< Ipopt at tol 1e-10, bound_relax_factor 0 (independent of our code)
@@ -37,13 +36,14 @@ struct QpBenchmarkOptions {
 struct QpBenchmarkReport {
   int count = 0;
   int repeats = 0;
-  Percentiles solve_us;       ///< QpSolver::solve, wall clock, per instance (min over passes)
-  Percentiles solve_cpu_us;   ///< the same in thread CPU time, first pass
-  Percentiles iterations;     ///< active-set sides added/dropped (+ interior-point iterations)
-  std::vector<int> failures;  ///< indices of instances not reported kSolved
-  int fallbacks = 0;          ///< instances the interior point answered after the active set
-  int nondeterministic = 0;   ///< later passes whose objective differed from the first's
-  double max_violation = 0.0;          ///< largest violation of a bound or row, absolute
+  mission::Percentiles solve_us;  ///< QpSolver::solve, wall clock, per instance (min over passes)
+  mission::Percentiles solve_cpu_us;  ///< the same in thread CPU time, first pass
+  mission::Percentiles
+      iterations;              ///< active-set sides added/dropped (+ interior-point iterations)
+  std::vector<int> failures;   ///< indices of instances not reported kSolved
+  int fallbacks = 0;           ///< instances the interior point answered after the active set
+  int nondeterministic = 0;    ///< later passes whose objective differed from the first's
+  double max_violation = 0.0;  ///< largest violation of a bound or row, absolute
   double max_rel_objective_gap = 0.0;  ///< |J − J_ref| / max(1, |J_ref|) over the instances
   int reference_failures = 0;          ///< instances the reference did not solve (no gap)
   double floor_llt_us_median = 0.0;    ///< LLT factor + solve of Hz = −f, same instances
@@ -57,4 +57,4 @@ struct QpBenchmarkReport {
 QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
                                    const QpBenchmarkOptions& options = {});
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

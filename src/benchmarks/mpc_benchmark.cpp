@@ -1,4 +1,4 @@
-#include "sim/mpc_benchmark.hpp"
+#include "benchmarks/mpc_benchmark.hpp"
 
 #include <fmt/format.h>
 
@@ -16,7 +16,7 @@
 #include "qp/qp_solver.hpp"
 #include "world/terrain.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::benchmarks {
 namespace {
 
 double thread_cpu_us() { return thread_cpu_time_s() * 1e6; }
@@ -25,10 +25,10 @@ double thread_cpu_us() { return thread_cpu_time_s() * 1e6; }
 
 nlohmann::json MpcBenchmarkReport::to_json() const {
   return {{"steps", steps},
-          {"mpc_step_us", sim::to_json(step_us)},
-          {"mpc_step_cpu_us", sim::to_json(step_cpu_us)},
-          {"qp_solve_us", sim::to_json(qp_us)},
-          {"qp_iterations", sim::to_json(qp_iterations)},
+          {"mpc_step_us", mission::to_json(step_us)},
+          {"mpc_step_cpu_us", mission::to_json(step_cpu_us)},
+          {"qp_solve_us", mission::to_json(qp_us)},
+          {"qp_iterations", mission::to_json(qp_iterations)},
           {"qp_method", qp_method},
           {"qp_fallbacks", qp_fallbacks},
           {"qps_dumped", qps_dumped},
@@ -139,17 +139,17 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
     dump->close();
     report.qps_dumped = dump->count();
   }
-  report.step_us = percentiles(step_us);
-  report.step_cpu_us = percentiles(cpu_us);
-  report.qp_us = percentiles(qp_us);
-  report.qp_iterations = percentiles(iterations);
+  report.step_us = mission::percentiles(step_us);
+  report.step_cpu_us = mission::percentiles(cpu_us);
+  report.qp_us = mission::percentiles(qp_us);
+  report.qp_iterations = mission::percentiles(iterations);
   report.soft_rows_mean = options.steps > 0 ? rows / options.steps : 0.0;
   if (report.ipopt_compared > 0) {
-    report.ipopt_qp_us_median = percentiles(ipopt_us).median;
-    report.ours_on_compared_us_median = percentiles(ours_compared).median;
+    report.ipopt_qp_us_median = mission::percentiles(ipopt_us).median;
+    report.ours_on_compared_us_median = mission::percentiles(ours_compared).median;
     report.ipopt_over_ours_ratio = report.ipopt_qp_us_median / report.ours_on_compared_us_median;
   }
   return report;
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::benchmarks

@@ -1,10 +1,10 @@
-#include "sim/safety_tally.hpp"
+#include "mission/safety_tally.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -62,4 +62,4 @@ void SafetyTally::write(MissionMetrics& m) const {
   }
 }
 
-}  // namespace ridgeline::sim
+}  // namespace ridgeline::mission

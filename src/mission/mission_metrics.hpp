@@ -8,9 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "sim/statistics.hpp"
+#include "core/types.hpp"
+#include "mission/scenario.hpp"
+#include "mission/statistics.hpp"
 
-namespace ridgeline::sim {
+namespace ridgeline::mission {
 
 struct UavMetrics {
   std::string name;
@@ -74,4 +76,23 @@ struct MissionMetrics {
 
 nlohmann::json to_json(const MissionMetrics& metrics);
 
-}  // namespace ridgeline::sim
+/// One row of trajectories.csv: a UAV at a control step.
+struct TrajectoryRow {
+  double t_s = 0.0;
+  int uav = 0;
+  Vec3 position_m = Vec3::Zero();
+  Vec3 reference_m = Vec3::Zero();
+  double speed_m_s = 0.0;
+  double heading_rad = 0.0;
+  double climb_rate_m_s = 0.0;
+};
+
+struct MissionResult {
+  MissionMetrics metrics;
+  std::vector<TrajectoryRow> trajectories;
+};
+
+/// trajectories.csv: header `t,uav,x,y,z,ref_x,ref_y,ref_z,v,psi,w`, uav by name.
+std::string trajectories_csv(const std::vector<TrajectoryRow>& rows, const Scenario& scenario);
+
+}  // namespace ridgeline::mission
