@@ -1,26 +1,30 @@
 // `ridgeline agent --id I [--scenario FILE]`: one UAV's on-board agent as a process of the
 // distributed swarm (src/nodes/agent_node.hpp). Prints one line at the end; exit 1 when it
-// gave up (no plan, or the world went silent).
+// gave up (no plan, or the world went silent). The same command is the program
+// `ridgeline-agent` (apps/agent/main.cpp), which links no simulator.
 #include <fmt/format.h>
 
 #include <iostream>
 
-#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "apps/node_support.hpp"
+#include "apps/scenario_argument.hpp"
 #include "core/error.hpp"
 #include "nodes/agent_node.hpp"
 
 namespace ridgeline::apps {
 
 void register_agent_command(CLI::App& app) {
+  configure_agent_command(app.add_subcommand("agent", "One UAV's on-board agent as a DDS node"));
+}
+
+void configure_agent_command(CLI::App* cmd) {
   struct Args {
     std::string scenario;
     DdsArgs dds;
     nodes::AgentNodeOptions options;
   };
   auto args = std::make_shared<Args>();
-  CLI::App* cmd = app.add_subcommand("agent", "One UAV's on-board agent as a DDS node");
   cmd->add_option("--id", args->options.id, "UAV index (0-based)")->required();
   cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   add_dds_options(cmd, args->dds);

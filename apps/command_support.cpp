@@ -8,10 +8,6 @@
 
 namespace ridgeline::apps {
 
-io::LoadedScenario load_scenario_argument(const std::string& path) {
-  return path.empty() ? io::load_default_scenario() : io::load_scenario_file(path);
-}
-
 std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loaded,
                                                    sim::Method method) {
   planning::GlobalPlan plan = sim::plan_for_method(loaded.scenario, loaded.terrain, method);

@@ -9,15 +9,13 @@
 #include <string>
 #include <string_view>
 
+#include "apps/scenario_argument.hpp"
 #include "io/scenario_file.hpp"
 #include "learning/ddpg.hpp"
 #include "planning/global_planner.hpp"
 #include "sim/method.hpp"
 
 namespace ridgeline::apps {
-
-/// The scenario at `path`, or the embedded default when `path` is empty.
-io::LoadedScenario load_scenario_argument(const std::string& path);
 
 /// Plans the mission with `method`'s planner (sim/method.hpp); on failure prints one error
 /// line, sets exit code 3 and returns nothing.

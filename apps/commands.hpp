@@ -37,8 +37,16 @@ inline std::vector<CommandRegistrar> all_commands() {
           register_launch_command, register_train_command};
 }
 
+/// The agent's options and callback on `command` (the `agent` subcommand, or the root of the
+/// `ridgeline-agent` program).
+void configure_agent_command(CLI::App* command);
+
 /// Exit code the chosen subcommand asks for (0 unless it called set_exit_code).
 int exit_code();
 void set_exit_code(int code);
+
+/// Parses the command line and runs the chosen command: its exit code, 2 after an InputError
+/// (one "error: field: reason" line), 1 after any other error.
+int parse_and_run(CLI::App& app, int argc, char** argv);
 
 }  // namespace ridgeline::apps

@@ -236,13 +236,21 @@ void register_launch_command(CLI::App& app) {
     const transport_dds::DdsOptions dds_opts = dds_options(dds);
     transport_dds::DdsParticipant check(dds_opts);  // fails early on a bad domain id
 
-    const std::filesystem::path dir(args->out);
-    const std::filesystem::path logs = dir / "logs";
-    std::filesystem::create_directories(logs);
     char exe_buf[4096];
     const ssize_t len = ::readlink("/proc/self/exe", exe_buf, sizeof(exe_buf) - 1);
     if (len <= 0) throw std::runtime_error("launch: cannot find its own executable");
     const std::string exe(exe_buf, static_cast<std::size_t>(len));
+    // The agents are their own program, which links no simulator (apps/agent/main.cpp).
+    const std::string agent_exe =
+        (std::filesystem::path(exe).parent_path() / "ridgeline-agent").string();
+    if (args->agents_as_processes && ::access(agent_exe.c_str(), X_OK) != 0)
+      throw InputError("--agents-as-processes",
+                       agent_exe +
+                           " is not there or not executable (build the target "
+                           "ridgeline_agent, which the build puts beside ridgeline)");
+    const std::filesystem::path dir(args->out);
+    const std::filesystem::path logs = dir / "logs";
+    std::filesystem::create_directories(logs);
     std::vector<std::string> common;
     if (!args->scenario.empty()) {
       common.push_back("--scenario");
@@ -280,7 +288,7 @@ void register_launch_command(CLI::App& app) {
     const std::size_t world_index = 1;
 
     auto agent_args = [&](int i) {
-      std::vector<std::string> a = {exe, "agent", "--id", std::to_string(i)};
+      std::vector<std::string> a = {agent_exe, "--id", std::to_string(i)};
       if (args->link_loss > 0.0) {
         a.push_back("--link-loss");
         a.push_back(fmt::format("{}", args->link_loss));

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "mission/mission_metrics.hpp"
 #include "mission/scenario.hpp"
-#include "sim/mission.hpp"
 #include "world/threat.hpp"
 
 namespace ridgeline::io {

@@ -24,7 +24,6 @@
 
 #include "mission/mission_metrics.hpp"
 #include "mission/scenario.hpp"
-#include "sim/mission.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::io {

@@ -1,7 +1,9 @@
 // Deep deterministic policy gradient (DDPG; Lillicrap et al. 2016), the learning method of the
 // paper's comparison [8], on the UAV environment (uav_environment.hpp). libtorch (Debian
-// libtorch-dev) does the networks; this header keeps torch out of every file that includes it
-// (pimpl), so only ddpg.cpp compiles torch's headers.
+// libtorch-dev) does the networks, in the module libridgeline_ddpg.so (src/learning/torch/),
+// which the first DdpgPolicy or DdpgTrainer loads (ddpg_backend.hpp); no program links torch,
+// and this header keeps it out of every file that includes it (pimpl). A missing or unloadable
+// module is an InputError naming where it was looked for.
 //
 //   actor   μ(o) = tanh(MLP(o)) ∈ [−1, 1]³           critic  Q(o, a) = MLP([o, a])
 //   critic: minimise (Q(o, a) − y)²,  y = r + γ·(1 − terminal)·Q'(o', μ'(o'))

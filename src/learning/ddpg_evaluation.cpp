@@ -1,17 +1,9 @@
-// The parts of ddpg.hpp that need no torch: seeds, the learning curve, the evaluation loop.
+// The learning curve's CSV and the held-out evaluation of a policy (ddpg.hpp).
 #include <fmt/format.h>
 
 #include "learning/ddpg.hpp"
 
 namespace ridgeline::learning {
-
-std::uint64_t training_episode_seed(std::uint64_t seed, int episode) {
-  return derive_seed(derive_seed(seed, 0x545241494E), static_cast<std::uint64_t>(episode));
-}
-
-std::uint64_t evaluation_episode_seed(std::uint64_t seed, int episode) {
-  return derive_seed(derive_seed(seed, 0x4556414C), static_cast<std::uint64_t>(episode));
-}
 
 std::string learning_curve_csv(const std::vector<TrainingEpisode>& curve) {
   std::string out =

@@ -1,7 +1,8 @@
 // `ridgeline experiment` end to end on the default scenario with one short run of one task:
 // experiment.json has the shape ({"tasks": [{"task", "methods": {"proposed",
 // "astar_dwa", "wind_aware"}}]}) with the same seeds for every method, and an unknown method or
-// task is one clear error with a non-zero exit and nothing written.
+// task is one clear error with a non-zero exit and nothing written; so is a missing DDPG model
+// or torch module.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -17,9 +18,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int run_cli(const std::string& args, const fs::path& log) {
-  const std::string cmd =
-      std::string(RIDGELINE_CLI_PATH) + " " + args + " > " + log.string() + " 2>&1";
+/// `environment`: assignments put before the command (NAME=VALUE ...).
+int run_cli(const std::string& args, const fs::path& log, const std::string& environment = "") {
+  const std::string cmd = environment + " " + std::string(RIDGELINE_CLI_PATH) + " " + args + " > " +
+                          log.string() + " 2>&1";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -99,6 +101,42 @@ TEST(DdpgMethod, MissingModelFileIsOneErrorNamingItAndWritesNothing) {
             2);
   EXPECT_NE(slurp(dir / "log").find("error: " + (dir / "bad.pt").string() + ": not a readable"),
             std::string::npos)
+      << slurp(dir / "log");
+  fs::remove_all(dir);
+}
+
+TEST(DdpgMethod, MissingOrUnloadableTorchModuleIsOneErrorNamingItAndWritesNothing) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const std::string missing = (dir / "no_such_dir" / "libridgeline_ddpg.so").string();
+  std::ofstream(dir / "not_a_module.so") << "not a shared library";
+  const std::string unloadable = (dir / "not_a_module.so").string();
+  for (const std::string& module : {missing, unloadable}) {
+    for (const std::string command :
+         {"run --method ddpg --quiet", "montecarlo --method ddpg --runs 1 --quiet",
+          "experiment --methods proposed,ddpg --runs 1 --quiet",
+          "train ddpg --episodes 1 --quiet"}) {
+      const fs::path out = dir / "out";
+      const std::string target = command.starts_with("train") ? " --out " + (out / "m.pt").string()
+                                                              : " --out " + out.string();
+      EXPECT_EQ(run_cli(command + target, dir / "log", "RIDGELINE_DDPG_MODULE=" + module), 2)
+          << command;
+      const std::string log = slurp(dir / "log");
+      EXPECT_NE(log.find("error: DDPG torch module libridgeline_ddpg.so: not loaded"),
+                std::string::npos)
+          << command << "\n"
+          << log;
+      EXPECT_NE(log.find("tried " + module + " (from $RIDGELINE_DDPG_MODULE): "), std::string::npos)
+          << log;
+      EXPECT_EQ(log.find("error", log.find("error") + 1), std::string::npos) << log;  // once
+      EXPECT_FALSE(fs::exists(out)) << command;
+    }
+  }
+  // The model file is checked first: a missing model is still reported as such.
+  EXPECT_EQ(run_cli("run --method ddpg --quiet --ddpg-model " + (dir / "none.pt").string() +
+                        " --out " + (dir / "out").string(),
+                    dir / "log", "RIDGELINE_DDPG_MODULE=" + missing),
+            2);
+  EXPECT_NE(slurp(dir / "log").find("none.pt: DDPG model file not found"), std::string::npos)
       << slurp(dir / "log");
   fs::remove_all(dir);
 }
