@@ -158,26 +158,142 @@ class MalformedInjector {
   long long injected_ = 0;
 };
 
+struct LaunchArgs {
+  std::string scenario;
+  std::string out = "out";
+  bool agents_as_processes = false;
+  bool real_time = false;
+  std::optional<int> domain_id;
+  std::optional<std::string> partition;
+  std::vector<std::string> kill;
+  std::vector<std::string> late;
+  double link_loss = 0.0;
+  double link_latency_s = 0.0;
+  bool inject_malformed = false;
+  double answer_timeout_s = 5.0;
+  double timeout_s = 3600.0;
+  std::optional<double> duration_s;
+};
+
+// The fault injections of the command line, checked against the team.
+struct Faults {
+  std::map<int, double> kill_at;  ///< UAV -> mission time its agent is killed
+  std::map<int, double> late_by;  ///< UAV -> mission time its agent starts
+};
+
+Faults check_arguments(const LaunchArgs& args, int n) {
+  if (!(args.link_loss >= 0.0 && args.link_loss <= 1.0))
+    throw InputError("--link-loss", fmt::format("must be in [0, 1], got {}", args.link_loss));
+  if (!(args.link_latency_s >= 0.0 && std::isfinite(args.link_latency_s)))
+    throw InputError("--link-latency-s", fmt::format("must be >= 0, got {}", args.link_latency_s));
+  if (args.duration_s && !(*args.duration_s > 0.0 && std::isfinite(*args.duration_s)))
+    throw InputError("--duration-s", fmt::format("must be positive, got {}", *args.duration_s));
+  Faults faults;
+  for (const std::string& k : args.kill) {
+    const auto [id, t] = parse_at(k, "--kill-agent", n);
+    faults.kill_at[id] = t;
+  }
+  for (const std::string& k : args.late) {
+    const auto [id, s] = parse_at(k, "--late-agent", n);
+    faults.late_by[id] = s;
+  }
+  if (!faults.kill_at.empty() && !args.agents_as_processes)
+    throw InputError("--kill-agent", "needs --agents-as-processes (a thread cannot be killed)");
+  if (static_cast<int>(faults.late_by.size()) >= n)
+    throw InputError("--late-agent", "at least one agent must start on time");
+  return faults;
+}
+
+// Waits for every child (up to 20 s after the world ended, none when `at_once`), kills what
+// is left, and joins the agent threads.
+void finish_children(std::vector<Child>& children, std::vector<std::thread>& threads,
+                     bool at_once) {
+  const auto grace_end = Clock::now() + std::chrono::seconds(at_once ? 0 : 20);
+  for (Child& c : children) {
+    while (!poll_exit(c) && Clock::now() < grace_end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (!poll_exit(c)) {
+      ::kill(c.pid, SIGKILL);
+      waitpid(c.pid, &c.status, 0);
+    }
+  }
+  for (std::thread& th : threads) th.join();
+}
+
+// metrics.json's distributed.processes: how each process (or agent thread) ended. Prints one
+// error line for each that failed and sets `failed`.
+nlohmann::json report_exits(const std::vector<Child>& children,
+                            const std::vector<std::string>& thread_errors, bool agents_as_processes,
+                            const std::filesystem::path& logs, bool& failed) {
+  nlohmann::json processes = nlohmann::json::object();
+  for (const Child& c : children) {
+    processes[c.name] = describe(c);
+    const bool ok =
+        c.killed_by_us ||
+        (c.exited && WIFEXITED(c.status) &&
+         (WEXITSTATUS(c.status) == 0 || (c.name == "world" && WEXITSTATUS(c.status) == 4)));
+    if (!ok) {
+      failed = true;
+      std::cerr << fmt::format("error: {} failed ({}), see {}\n", c.name, describe(c),
+                               (logs / (c.name == "ground" || c.name == "world"
+                                            ? c.name + ".log"
+                                            : fmt::format("agent{}.log", c.name.substr(6))))
+                                   .string());
+    }
+  }
+  if (!agents_as_processes)
+    for (std::size_t i = 0; i < thread_errors.size(); ++i) {
+      const std::string& e = thread_errors[i];
+      processes[fmt::format("agent {}", i)] = e.empty() ? "thread ended" : "thread failed: " + e;
+      if (!e.empty()) {
+        failed = true;
+        std::cerr << fmt::format("error: agent {} failed: {}\n", i, e);
+      }
+    }
+  return processes;
+}
+
+// Merges the launcher's and the ground station's reports into the world's metrics.json and
+// writes summary.json. Returns the merged metrics, or null when the world wrote none.
+nlohmann::json write_launch_outputs(const std::filesystem::path& dir,
+                                    const io::LoadedScenario& loaded, const LaunchArgs& args,
+                                    const DdsArgs& dds, const nlohmann::json& processes,
+                                    int malformed_injections) {
+  if (!std::filesystem::exists(dir / "metrics.json")) return nullptr;
+  nlohmann::json metrics = nlohmann::json::parse(std::ifstream(dir / "metrics.json"));
+  if (std::filesystem::exists(dir / "ground.json"))
+    metrics["distributed"]["ground"] = nlohmann::json::parse(std::ifstream(dir / "ground.json"));
+  metrics["distributed"]["processes"] = processes;
+  metrics["distributed"]["agents_as_processes"] = args.agents_as_processes;
+  metrics["distributed"]["domain_id"] = dds.domain_id;
+  metrics["distributed"]["partition"] = dds.partition;
+  metrics["distributed"]["faults"] = {{"killed", args.kill},
+                                      {"late", args.late},
+                                      {"link_loss", args.link_loss},
+                                      {"link_latency_s", args.link_latency_s},
+                                      {"malformed_injections", malformed_injections}};
+  io::write_file_atomically(dir / "metrics.json", metrics.dump(2) + "\n");
+  nlohmann::json summary = io::summarize(loaded);
+  if (std::filesystem::exists(dir / "plan.json")) {
+    const nlohmann::json plan = nlohmann::json::parse(std::ifstream(dir / "plan.json"));
+    summary["plan"] = {{"status", plan["status"]},
+                       {"solve_time_s", plan["solve_time_s"]},
+                       {"cost", plan["cost"]},
+                       {"validation", plan["validation"]}};
+  }
+  summary["flight"] = {{"mission_complete", metrics["mission_complete"]},
+                       {"safe", metrics["safe"]},
+                       {"sim_time_s", metrics["sim_time_s"]},
+                       {"wall_time_s", metrics["wall_time_s"]},
+                       {"distributed", true}};
+  io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
+  return metrics;
+}
+
 }  // namespace
 
 void register_launch_command(CLI::App& app) {
-  struct Args {
-    std::string scenario;
-    std::string out = "out";
-    bool agents_as_processes = false;
-    bool real_time = false;
-    std::optional<int> domain_id;
-    std::optional<std::string> partition;
-    std::vector<std::string> kill;
-    std::vector<std::string> late;
-    double link_loss = 0.0;
-    double link_latency_s = 0.0;
-    bool inject_malformed = false;
-    double answer_timeout_s = 5.0;
-    double timeout_s = 3600.0;
-    std::optional<double> duration_s;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<LaunchArgs>();
   CLI::App* cmd = app.add_subcommand(
       "launch", "Fly the mission as separate processes over DDS on this machine (loopback)");
   cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
@@ -208,26 +324,9 @@ void register_launch_command(CLI::App& app) {
   cmd->callback([args] {
     const io::LoadedScenario loaded = load_scenario_argument(args->scenario);
     const int n = static_cast<int>(loaded.scenario.uavs.size());
-    if (!(args->link_loss >= 0.0 && args->link_loss <= 1.0))
-      throw InputError("--link-loss", fmt::format("must be in [0, 1], got {}", args->link_loss));
-    if (!(args->link_latency_s >= 0.0 && std::isfinite(args->link_latency_s)))
-      throw InputError("--link-latency-s",
-                       fmt::format("must be >= 0, got {}", args->link_latency_s));
-    if (args->duration_s && !(*args->duration_s > 0.0 && std::isfinite(*args->duration_s)))
-      throw InputError("--duration-s", fmt::format("must be positive, got {}", *args->duration_s));
-    std::map<int, double> kill_at, late_by;
-    for (const std::string& k : args->kill) {
-      const auto [id, t] = parse_at(k, "--kill-agent", n);
-      kill_at[id] = t;
-    }
-    for (const std::string& k : args->late) {
-      const auto [id, s] = parse_at(k, "--late-agent", n);
-      late_by[id] = s;
-    }
-    if (!kill_at.empty() && !args->agents_as_processes)
-      throw InputError("--kill-agent", "needs --agents-as-processes (a thread cannot be killed)");
-    if (static_cast<int>(late_by.size()) >= n)
-      throw InputError("--late-agent", "at least one agent must start on time");
+    Faults faults = check_arguments(*args, n);
+    std::map<int, double>& kill_at = faults.kill_at;
+    std::map<int, double>& late_by = faults.late_by;
 
     const int pid = static_cast<int>(::getpid());
     DdsArgs dds;
@@ -397,82 +496,21 @@ void register_launch_command(CLI::App& app) {
       }
     }
     // The world has ended (its clock said stop): the others follow within seconds.
-    const auto grace_end = Clock::now() + std::chrono::seconds(timed_out || aborted ? 0 : 20);
-    for (Child& c : children) {
-      while (!poll_exit(c) && Clock::now() < grace_end)
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (!poll_exit(c)) {
-        ::kill(c.pid, SIGKILL);
-        waitpid(c.pid, &c.status, 0);
-      }
-    }
-    for (std::thread& th : threads) th.join();
-
+    finish_children(children, threads, timed_out || aborted);
     bool failed = timed_out || aborted;
-    nlohmann::json processes = nlohmann::json::object();
-    for (const Child& c : children) {
-      processes[c.name] = describe(c);
-      const bool ok =
-          c.killed_by_us ||
-          (c.exited && WIFEXITED(c.status) &&
-           (WEXITSTATUS(c.status) == 0 || (c.name == "world" && WEXITSTATUS(c.status) == 4)));
-      if (!ok) {
-        failed = true;
-        std::cerr << fmt::format("error: {} failed ({}), see {}\n", c.name, describe(c),
-                                 (logs / (c.name == "ground" || c.name == "world"
-                                              ? c.name + ".log"
-                                              : fmt::format("agent{}.log", c.name.substr(6))))
-                                     .string());
-      }
-    }
-    for (int i = 0; i < n; ++i) {
-      if (!args->agents_as_processes) {
-        const std::string& e = thread_errors[static_cast<std::size_t>(i)];
-        processes[fmt::format("agent {}", i)] = e.empty() ? "thread ended" : "thread failed: " + e;
-        if (!e.empty()) {
-          failed = true;
-          std::cerr << fmt::format("error: agent {} failed: {}\n", i, e);
-        }
-      }
-    }
+    const nlohmann::json processes =
+        report_exits(children, thread_errors, args->agents_as_processes, logs, failed);
     if (timed_out)
       std::cerr << fmt::format("error: launch timed out after {} s\n", args->timeout_s);
 
-    // Merge the ground station's report into metrics.json, and write summary.json.
-    if (!std::filesystem::exists(dir / "metrics.json")) {
+    const nlohmann::json metrics = write_launch_outputs(dir, loaded, *args, dds, processes,
+                                                        injector ? injector->injected() : 0);
+    if (metrics.is_null()) {
       std::cerr << "error: the world wrote no metrics.json (see " << (logs / "world.log").string()
                 << ")\n";
       set_exit_code(5);
       return;
     }
-    nlohmann::json metrics = nlohmann::json::parse(std::ifstream(dir / "metrics.json"));
-    if (std::filesystem::exists(dir / "ground.json"))
-      metrics["distributed"]["ground"] = nlohmann::json::parse(std::ifstream(dir / "ground.json"));
-    metrics["distributed"]["processes"] = processes;
-    metrics["distributed"]["agents_as_processes"] = args->agents_as_processes;
-    metrics["distributed"]["domain_id"] = dds.domain_id;
-    metrics["distributed"]["partition"] = dds.partition;
-    metrics["distributed"]["faults"] = {
-        {"killed", args->kill},
-        {"late", args->late},
-        {"link_loss", args->link_loss},
-        {"link_latency_s", args->link_latency_s},
-        {"malformed_injections", injector ? injector->injected() : 0}};
-    io::write_file_atomically(dir / "metrics.json", metrics.dump(2) + "\n");
-    nlohmann::json summary = io::summarize(loaded);
-    if (std::filesystem::exists(dir / "plan.json")) {
-      const nlohmann::json plan = nlohmann::json::parse(std::ifstream(dir / "plan.json"));
-      summary["plan"] = {{"status", plan["status"]},
-                         {"solve_time_s", plan["solve_time_s"]},
-                         {"cost", plan["cost"]},
-                         {"validation", plan["validation"]}};
-    }
-    summary["flight"] = {{"mission_complete", metrics["mission_complete"]},
-                         {"safe", metrics["safe"]},
-                         {"sim_time_s", metrics["sim_time_s"]},
-                         {"wall_time_s", metrics["wall_time_s"]},
-                         {"distributed", true}};
-    io::write_file_atomically(dir / "summary.json", summary.dump(2) + "\n");
     std::cout << fmt::format(
         "launch: mission {} in {} s simulated, {:.1f} s wall; safe: {}; processes: {}\n",
         metrics.value("mission_complete", false) ? "complete" : "NOT complete",

@@ -197,6 +197,217 @@ std::vector<TimedPath> timed_paths(const std::vector<GridUav>& grid,
   return out;
 }
 
+// The problem's and options' errors (the first found), or empty.
+std::string check_problem(const TrajectoryProblem& problem,
+                          const TrajectoryOptimizerOptions& options) {
+  if (problem.terrain == nullptr) return "problem.terrain: missing";
+  if (problem.uavs.empty()) return "problem.uavs: empty";
+  if (std::string e = check_options(options); !e.empty()) return e;
+  try {
+    world::validate(problem.limits);
+  } catch (const InputError& e) {
+    return fmt::format("problem.limits: {}", e.what());
+  }
+  for (std::size_t i = 0; i < problem.uavs.size(); ++i)
+    if (std::string e =
+            check_uav(problem.uavs[i], static_cast<int>(i), *problem.terrain, problem.limits);
+        !e.empty())
+      return e;
+  return {};
+}
+
+// The shared time grid: every UAV's route on steps of dt from its legs' cruise times.
+struct TeamGrid {
+  std::vector<GridUav> uavs;
+  double dt = 0.0;
+  int max_index = 0;  ///< the largest segment count over the team
+  std::string error;  ///< a route the grid cannot carry, or empty
+};
+
+TeamGrid make_team_grid(const TrajectoryProblem& problem,
+                        const TrajectoryOptimizerOptions& options) {
+  const bool climb = options.enforce_climb_rate;
+  const int n_uav = static_cast<int>(problem.uavs.size());
+  TeamGrid team;
+  std::vector<Legs> legs;
+  double t_max = 0.0;
+  for (int i = 0; i < n_uav; ++i) {
+    legs.push_back(legs_of(problem.uavs[i], climb));
+    double t = 0.0;
+    for (std::size_t m = 0; m < legs[i].times_s.size(); ++m) {
+      if (!(legs[i].times_s[m] > 0.0)) {
+        team.error = fmt::format(
+            "uavs[{}].target_indices[{}]: the target coincides with the previous point of the "
+            "route",
+            i, m);
+        return team;
+      }
+      t += legs[i].times_s[m];
+    }
+    t_max = std::max(t_max, t);
+  }
+  team.dt = options.time_step_s > 0.0 ? options.time_step_s : t_max / options.waypoints_per_uav;
+  for (int i = 0; i < n_uav; ++i) {
+    team.uavs.push_back(make_grid(problem.uavs[i], legs[i], team.dt, climb));
+    team.max_index = std::max(team.max_index, team.uavs[i].segments());
+  }
+  return team;
+}
+
+// Separation-aware guesses (guess_deconfliction.hpp): altitude layers where the independent
+// initial paths meet at equal times, so Ipopt starts apart instead of pulling UAVs apart.
+// Without deconfliction, only the guesses' separation is measured.
+GuessDeconflictionSummary deconflict_team(const TrajectoryProblem& problem,
+                                          const TrajectoryOptimizerOptions& options,
+                                          TeamGrid& team) {
+  const world::SafetyLimits& limits = problem.limits;
+  const bool climb = options.enforce_climb_rate;
+  std::vector<GuessUav> guesses;
+  GuessDeconflictionSummary report;
+  if (!options.deconflict_guesses) {
+    for (const GridUav& g : team.uavs) guesses.push_back({g.guess_m, g.fixed, 1.0, 0.5});
+    report.min_separation_before_m = min_guess_separation(
+        guesses, options.guess_separation_factor * limits.separation_m, &report.conflicts_before);
+    report.min_separation_after_m = report.min_separation_before_m;
+    report.conflicts_after = report.conflicts_before;
+    return report;
+  }
+  // A lift's ramp uses what the guess leaves of the climb limit (when it is a row) and of the
+  // pitch limit at cruise.
+  for (std::size_t i = 0; i < team.uavs.size(); ++i) {
+    const GridUav& g = team.uavs[i];
+    const vehicle::VehicleParams& v = problem.uavs[i].vehicle;
+    const double pitch_step_m = g.tan_max_pitch * g.nominal_length_m;
+    guesses.push_back(
+        {g.guess_m, g.fixed, climb ? std::min(g.max_climb_m, pitch_step_m) : pitch_step_m,
+         std::clamp(v.min_speed_m_s() / v.cruise_speed_m_s, 0.0, 0.95), g.tan_max_pitch});
+  }
+  GuessDeconflictionOptions deconfliction;
+  deconfliction.separation_m = std::max(options.guess_separation_factor * limits.separation_m,
+                                        limits.separation_m + options.separation_margin_m);
+  report = deconflict_guesses(guesses, limits.altitude, deconfliction);
+  for (std::size_t i = 0; i < team.uavs.size(); ++i) {
+    GridUav& g = team.uavs[i];
+    g.guess_m = guesses[i].guess_m;
+    g.fixed = guesses[i].fixed;
+    // A delay adds points: the speed band's lower bounds follow the new guess.
+    g.min_length_m.clear();
+    for (int k = 0; k < g.segments(); ++k) {
+      const double guess = (g.guess_m[k + 1] - g.guess_m[k]).head<2>().norm();
+      g.min_length_m.push_back(
+          std::min(problem.uavs[i].vehicle.min_speed_m_s() * team.dt, 0.5 * guess));
+    }
+    team.max_index = std::max(team.max_index, g.segments());
+  }
+  return report;
+}
+
+// Points fixed at the same time (starts, targets, finished UAVs holding) must already be
+// separated: no optimization can move them (eq. 21). The first pair that is not, or empty.
+std::string fixed_points_too_close(const TeamGrid& team, double separation_m) {
+  const std::vector<GridUav>& grid = team.uavs;
+  for (std::size_t a = 0; a < grid.size(); ++a)
+    for (std::size_t b = a + 1; b < grid.size(); ++b)
+      for (int k = 0; k <= team.max_index; ++k) {
+        if (!held_fixed(grid[a], k) || !held_fixed(grid[b], k)) continue;
+        const Vec3 p = held(grid[a], k);
+        const Vec3 q = held(grid[b], k);
+        const double d = (p - q).norm();
+        if (d < separation_m)
+          return fmt::format(
+              "separation (eq. 21): UAVs {} and {} are both fixed at t = {:.1f} s (start, "
+              "target or holding at the final point), at ({:.1f}, {:.1f}, {:.1f}) and ({:.1f}, "
+              "{:.1f}, {:.1f}), {:.2f} m apart < d_safe = {:.2f} m",
+              grid[a].name, grid[b].name, k * team.dt, p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), d,
+              separation_m);
+      }
+  return {};
+}
+
+using Candidates = std::map<std::tuple<int, int, int>, SeparationCandidate>;
+
+// Candidate pairs/steps (eq. 21 rows and J_col) from the guesses.
+Candidates initial_candidates(const TeamGrid& team, const TrajectoryOptimizerOptions& options) {
+  const std::vector<GridUav>& grid = team.uavs;
+  const int n_uav = static_cast<int>(grid.size());
+  Candidates candidates;
+  for (int a = 0; a < n_uav; ++a)
+    for (int b = a + 1; b < n_uav; ++b)
+      for (int k = 0; k <= team.max_index; ++k) {
+        const Vec3 r0 = held(grid[a], k) - held(grid[b], k);
+        const Vec3 r1 = held(grid[a], k + 1) - held(grid[b], k + 1);
+        const double d = std::min({r0.norm(), r1.norm(), (0.5 * (r0 + r1)).norm()});
+        if (d < options.separation_prefilter_m)
+          candidates[{a, b, k}] =
+              SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
+      }
+  return candidates;
+}
+
+// Refines where the dense check failed: more terrain samples and margin on a violated segment
+// and its neighbours, more separation rows and margin around a violated step.
+void refine_where_broken(const PlanValidationReport& validation, const TeamGrid& team,
+                         const TrajectoryOptimizerOptions& options, NlpSetup& setup,
+                         Candidates& candidates) {
+  for (const PlanViolation& v : validation.violations) {
+    const double extra = v.amount_m + 0.1;
+    if (v.kind == ViolationKind::kTerrainClearance) {
+      // The violated segment gets more samples and margin; its neighbours get more samples
+      // too, since the re-solve may slide the waypoints so the same terrain feature falls on
+      // the next segment.
+      const int n = team.uavs[v.uav].segments();
+      const int k = std::min(v.segment, n - 1);
+      for (int kk = std::max(0, k - 1); kk <= std::min(n - 1, k + 1); ++kk) {
+        int& samples = setup.terrain_samples[v.uav][kk];
+        samples = 2 * samples + 1;
+      }
+      for (int p : {k, k + 1}) setup.clearance_extra_m[v.uav][p] += extra;
+    } else if (v.kind == ViolationKind::kSeparation) {
+      const int k = std::clamp(static_cast<int>(std::floor(v.time_s / team.dt)), 0, team.max_index);
+      for (int kk : {k - 1, k, k + 1}) {
+        if (kk < 0 || kk > team.max_index) continue;
+        auto [it, inserted] = candidates.try_emplace(
+            std::tuple{v.uav, v.other_uav, kk},
+            SeparationCandidate{v.uav, v.other_uav, kk, options.separation_samples_per_step, 0.0});
+        it->second.interior_samples = 2 * it->second.interior_samples + 1;
+        it->second.margin_m += extra;
+      }
+    }
+    // Altitude violations cannot be refined: eq. 14 is a variable bound and z is linear on a
+    // segment. They can only come from Ipopt's bound relaxation and are reported as such.
+  }
+}
+
+// When the dense check found a separation violation, the pairs the solution brought within
+// the collision cost's reach D_c (or the prefilter distance, if smaller) that are not
+// candidates yet become candidates too: the solve moved them away from their guesses, and
+// without rows they would be found one violation a round (10 UAVs × 100 waypoints: 4 rounds
+// and the time budget before, 2 rounds after).
+void add_candidates_the_solve_brought_near(const PlanValidationReport& validation,
+                                           const std::vector<std::vector<Vec3>>& waypoints,
+                                           const TeamGrid& team, double separation_m,
+                                           const TrajectoryOptimizerOptions& options,
+                                           Candidates& candidates) {
+  bool separation_violated = false;
+  for (const PlanViolation& v : validation.violations)
+    separation_violated = separation_violated || v.kind == ViolationKind::kSeparation;
+  const double near_m = separation_violated ? std::min(options.separation_prefilter_m,
+                                                       options.collision_soft_distance_m)
+                                            : 0.0;
+  const int n_uav = static_cast<int>(team.uavs.size());
+  for (int a = 0; a < n_uav; ++a)
+    for (int b = a + 1; b < n_uav; ++b)
+      for (int k = 0; k <= team.max_index; ++k) {
+        if (candidates.count({a, b, k}) != 0) continue;
+        // A row that would start violated (within d_safe + margin) is left to the dense
+        // check: an infeasible new row at a warm start cost Ipopt hundreds of iterations.
+        const double d = step_min_distance(waypoints[a], waypoints[b], k);
+        if (d < near_m && d > separation_m + options.separation_margin_m + 1.0)
+          candidates[{a, b, k}] =
+              SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
+      }
+}
+
 }  // namespace
 
 std::string_view to_string(TrajectoryStatus status) {
@@ -226,132 +437,29 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     return result;
   };
 
-  // Input.
-  if (problem.terrain == nullptr) return fail(TrajectoryStatus::kInvalidInput, "problem.terrain: missing");
-  if (problem.uavs.empty()) return fail(TrajectoryStatus::kInvalidInput, "problem.uavs: empty");
-  if (std::string e = check_options(options); !e.empty()) return fail(TrajectoryStatus::kInvalidInput, e);
-  try {
-    world::validate(problem.limits);
-  } catch (const InputError& e) {
-    return fail(TrajectoryStatus::kInvalidInput, fmt::format("problem.limits: {}", e.what()));
-  }
+  if (std::string e = check_problem(problem, options); !e.empty())
+    return fail(TrajectoryStatus::kInvalidInput, e);
   const world::SafetyLimits& limits = problem.limits;
   const world::Terrain& terrain = *problem.terrain;
   const int n_uav = static_cast<int>(problem.uavs.size());
-  for (int i = 0; i < n_uav; ++i)
-    if (std::string e = check_uav(problem.uavs[i], i, terrain, limits); !e.empty())
-      return fail(TrajectoryStatus::kInvalidInput, e);
 
   // Shared time grid and initial guesses.
-  const bool climb = options.enforce_climb_rate;
-  std::vector<Legs> legs;
-  double t_max = 0.0;
-  for (int i = 0; i < n_uav; ++i) {
-    legs.push_back(legs_of(problem.uavs[i], climb));
-    double t = 0.0;
-    for (std::size_t m = 0; m < legs[i].times_s.size(); ++m) {
-      if (!(legs[i].times_s[m] > 0.0))
-        return fail(TrajectoryStatus::kInvalidInput,
-                    fmt::format("uavs[{}].target_indices[{}]: the target coincides with the "
-                                "previous point of the route",
-                                i, m));
-      t += legs[i].times_s[m];
-    }
-    t_max = std::max(t_max, t);
-  }
-  const double dt = options.time_step_s > 0.0 ? options.time_step_s : t_max / options.waypoints_per_uav;
+  TeamGrid team = make_team_grid(problem, options);
+  if (!team.error.empty()) return fail(TrajectoryStatus::kInvalidInput, team.error);
+  const double dt = team.dt;
   result.time_step_s = dt;
-  std::vector<GridUav> grid;
-  int max_index = 0;
-  for (int i = 0; i < n_uav; ++i) {
-    grid.push_back(make_grid(problem.uavs[i], legs[i], dt, climb));
-    max_index = std::max(max_index, grid[i].segments());
-  }
-
-  // Separation-aware guesses (guess_deconfliction.hpp): altitude layers where the independent
-  // initial paths meet at equal times, so Ipopt starts apart instead of pulling UAVs apart.
-  if (options.deconflict_guesses && n_uav > 1) {
-    std::vector<GuessUav> guesses;
-    // A lift's ramp uses what the guess leaves of the climb limit (when it is a row) and of
-    // the pitch limit at cruise.
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-      const GridUav& g = grid[i];
-      const vehicle::VehicleParams& v = problem.uavs[i].vehicle;
-      const double pitch_step_m = g.tan_max_pitch * g.nominal_length_m;
-      guesses.push_back({g.guess_m, g.fixed,
-                         climb ? std::min(g.max_climb_m, pitch_step_m) : pitch_step_m,
-                         std::clamp(v.min_speed_m_s() / v.cruise_speed_m_s, 0.0, 0.95),
-                         g.tan_max_pitch});
-    }
-    GuessDeconflictionOptions deconfliction;
-    deconfliction.separation_m = std::max(options.guess_separation_factor * limits.separation_m,
-                                          limits.separation_m + options.separation_margin_m);
-    result.guess = deconflict_guesses(guesses, limits.altitude, deconfliction);
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-      GridUav& g = grid[i];
-      g.guess_m = guesses[i].guess_m;
-      g.fixed = guesses[i].fixed;
-      // A delay adds points: the speed band's lower bounds follow the new guess.
-      g.min_length_m.clear();
-      for (int k = 0; k < g.segments(); ++k) {
-        const double guess = (g.guess_m[k + 1] - g.guess_m[k]).head<2>().norm();
-        g.min_length_m.push_back(
-            std::min(problem.uavs[i].vehicle.min_speed_m_s() * dt, 0.5 * guess));
-      }
-      max_index = std::max(max_index, g.segments());
-    }
-  }
-
-  if (!options.deconflict_guesses && n_uav > 1) {
-    std::vector<GuessUav> guesses;
-    for (const GridUav& g : grid) guesses.push_back({g.guess_m, g.fixed, 1.0, 0.5});
-    result.guess.min_separation_before_m =
-        min_guess_separation(guesses, options.guess_separation_factor * limits.separation_m,
-                             &result.guess.conflicts_before);
-    result.guess.min_separation_after_m = result.guess.min_separation_before_m;
-    result.guess.conflicts_after = result.guess.conflicts_before;
-  }
-
-  // Points fixed at the same time (starts, targets, finished UAVs holding) must already be
-  // separated: no optimization can move them (eq. 21).
-  for (int a = 0; a < n_uav; ++a)
-    for (int b = a + 1; b < n_uav; ++b)
-      for (int k = 0; k <= max_index; ++k) {
-        if (!held_fixed(grid[a], k) || !held_fixed(grid[b], k)) continue;
-        const double d = (held(grid[a], k) - held(grid[b], k)).norm();
-        if (d < limits.separation_m) {
-          const Vec3 p = held(grid[a], k);
-          const Vec3 q = held(grid[b], k);
-          return fail(
-              TrajectoryStatus::kInfeasible,
-              fmt::format("separation (eq. 21): UAVs {} and {} are both fixed at t = {:.1f} s "
-                          "(start, target or holding at the final point), at ({:.1f}, {:.1f}, "
-                          "{:.1f}) and ({:.1f}, {:.1f}, {:.1f}), {:.2f} m apart < d_safe = "
-                          "{:.2f} m",
-                          grid[a].name, grid[b].name, k * dt, p.x(), p.y(), p.z(), q.x(), q.y(),
-                          q.z(), d, limits.separation_m));
-        }
-      }
-
-  // Candidate pairs/steps (eq. 21 rows and J_col) from the guesses.
-  std::map<std::tuple<int, int, int>, SeparationCandidate> candidates;
-  for (int a = 0; a < n_uav; ++a)
-    for (int b = a + 1; b < n_uav; ++b)
-      for (int k = 0; k <= max_index; ++k) {
-        const Vec3 r0 = held(grid[a], k) - held(grid[b], k);
-        const Vec3 r1 = held(grid[a], k + 1) - held(grid[b], k + 1);
-        const double d = std::min({r0.norm(), r1.norm(), (0.5 * (r0 + r1)).norm()});
-        if (d < options.separation_prefilter_m)
-          candidates[{a, b, k}] = SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
-      }
+  if (n_uav > 1) result.guess = deconflict_team(problem, options, team);
+  if (std::string e = fixed_points_too_close(team, limits.separation_m); !e.empty())
+    return fail(TrajectoryStatus::kInfeasible, e);
+  Candidates candidates = initial_candidates(team, options);
 
   NlpSetup setup;
   setup.terrain = &terrain;
-  setup.uavs = grid;
+  setup.uavs = team.uavs;
   setup.time_step_s = dt;
   setup.limits = limits;
   setup.options = options;
-  for (const GridUav& g : grid) {
+  for (const GridUav& g : team.uavs) {
     setup.terrain_samples.emplace_back(g.segments(), options.terrain_samples_per_segment);
     setup.clearance_extra_m.emplace_back(g.guess_m.size(), 0.0);
   }
@@ -364,6 +472,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   solve_options.max_iterations =
       std::max(options.max_iterations, options.iterations_per_uav * n_uav);
 
+  // Solve, check densely, refine where the check failed, solve again from the last solution.
   std::vector<std::vector<Vec3>> previous;
   std::map<TrajectoryNlp::RowKey, double> previous_lambda;  // by row, from the last solve
   Multipliers previous_bounds;                              // variables do not change
@@ -409,19 +518,22 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
 
     const std::vector<double>& x = solve.x;
     const std::vector<std::vector<Vec3>> waypoints = nlp.unpack(x.data());
-    std::vector<TimedPath> paths = timed_paths(grid, waypoints, dt);
+    std::vector<TimedPath> paths = timed_paths(team.uavs, waypoints, dt);
     result.validation = validate_plan(terrain, paths, limits, validation);
 
     const TrajectoryStatus ipopt_status = solve.status;
     if (ipopt_status != TrajectoryStatus::kSolved) {
       std::string where = nlp.worst_rows(x.data(), 3);
-      if (!result.validation.passed()) where += "; dense check: " + result.validation.violations.front().description;
-      return fail(ipopt_status, fmt::format("Ipopt stopped ({}) in solve {}: {}", to_string(ipopt_status),
-                                            result.solves, where.empty() ? "no violated row" : where));
+      if (!result.validation.passed())
+        where += "; dense check: " + result.validation.violations.front().description;
+      return fail(ipopt_status,
+                  fmt::format("Ipopt stopped ({}) in solve {}: {}", to_string(ipopt_status),
+                              result.solves, where.empty() ? "no violated row" : where));
     }
 
     if (result.validation.passed()) {
-      result.status = round == 0 ? TrajectoryStatus::kSolved : TrajectoryStatus::kSolvedAfterRefinement;
+      result.status =
+          round == 0 ? TrajectoryStatus::kSolved : TrajectoryStatus::kSolvedAfterRefinement;
       result.paths = std::move(paths);
       result.costs = nlp.costs(x.data(), &result.collision_cost);
       result.objective = nlp.objective(x.data());
@@ -430,65 +542,18 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       return result;
     }
 
-    // Refine where the dense check failed, then re-solve from this solution.
-    for (const PlanViolation& v : result.validation.violations) {
-      const double extra = v.amount_m + 0.1;
-      if (v.kind == ViolationKind::kTerrainClearance) {
-        // The violated segment gets more samples and margin; its neighbours get more samples
-        // too, since the re-solve may slide the waypoints so the same terrain feature falls
-        // on the next segment.
-        const int n = grid[v.uav].segments();
-        const int k = std::min(v.segment, n - 1);
-        for (int kk = std::max(0, k - 1); kk <= std::min(n - 1, k + 1); ++kk) {
-          int& samples = setup.terrain_samples[v.uav][kk];
-          samples = 2 * samples + 1;
-        }
-        for (int p : {k, k + 1}) setup.clearance_extra_m[v.uav][p] += extra;
-      } else if (v.kind == ViolationKind::kSeparation) {
-        const int k = std::clamp(static_cast<int>(std::floor(v.time_s / dt)), 0, max_index);
-        for (int kk : {k - 1, k, k + 1}) {
-          if (kk < 0 || kk > max_index) continue;
-          auto [it, inserted] = candidates.try_emplace(
-              std::tuple{v.uav, v.other_uav, kk},
-              SeparationCandidate{v.uav, v.other_uav, kk, options.separation_samples_per_step, 0.0});
-          it->second.interior_samples = 2 * it->second.interior_samples + 1;
-          it->second.margin_m += extra;
-        }
-      }
-      // Altitude violations cannot be refined: eq. 14 is a variable bound and z is linear on a
-      // segment. They can only come from Ipopt's bound relaxation and are reported as such.
-    }
-    // When the dense check found a separation violation, the pairs the solution brought within
-    // the collision cost's reach D_c (or the prefilter distance, if smaller) that are not
-    // candidates yet become candidates too: the solve moved them away from their guesses, and
-    // without rows they would be found one violation a round (10 UAVs × 100 waypoints: 4 rounds
-    // and the time budget before, 2 rounds after).
-    bool separation_violated = false;
-    for (const PlanViolation& v : result.validation.violations)
-      separation_violated = separation_violated || v.kind == ViolationKind::kSeparation;
-    const double near_m = separation_violated ? std::min(options.separation_prefilter_m,
-                                                         options.collision_soft_distance_m)
-                                              : 0.0;
-    for (int a = 0; a < n_uav; ++a)
-      for (int b = a + 1; b < n_uav; ++b)
-        for (int k = 0; k <= max_index; ++k) {
-          if (candidates.count({a, b, k}) != 0) continue;
-          // A row that would start violated (within d_safe + margin) is left to the dense
-          // check: an infeasible new row at a warm start cost Ipopt hundreds of iterations.
-          const double d = step_min_distance(waypoints[a], waypoints[b], k);
-          if (d < near_m && d > limits.separation_m + options.separation_margin_m + 1.0)
-            candidates[{a, b, k}] =
-                SeparationCandidate{a, b, k, options.separation_samples_per_step, 0.0};
-        }
+    refine_where_broken(result.validation, team, options, setup, candidates);
+    add_candidates_the_solve_brought_near(result.validation, waypoints, team, limits.separation_m,
+                                          options, candidates);
     previous = waypoints;
     previous_bounds = solve.multipliers;
     previous_lambda.clear();
     for (int r = 0; r < nlp.num_constraints(); ++r)
       previous_lambda[nlp.row_key(r)] = previous_bounds.lambda[static_cast<std::size_t>(r)];
   }
-  std::string message = fmt::format("every one of {} solve(s) broke a hard constraint in the dense "
-                                    "check; last: {}",
-                                    result.solves, result.validation.summary(3));
+  std::string message =
+      fmt::format("every one of {} solve(s) broke a hard constraint in the dense check; last: {}",
+                  result.solves, result.validation.summary(3));
   return fail(TrajectoryStatus::kValidationFailed, message);
 }
 
