@@ -128,6 +128,52 @@ int fill_voids(world::RasterGrid& grid, std::vector<char>& is_void) {
   }
 }
 
+// The voids of `mask` (8-connected), each raised by its rim's height range after fill_voids
+// spread the rim inwards (dem_file.hpp, VoidRegion). Extents in the grid's own coordinates.
+std::vector<VoidRegion> raise_filled_voids(world::RasterGrid& grid, const std::vector<char>& mask) {
+  std::vector<VoidRegion> regions;
+  std::vector<char> seen(mask.size(), 0);
+  std::vector<std::size_t> component;
+  for (std::size_t start = 0; start < mask.size(); ++start) {
+    if (!mask[start] || seen[start]) continue;
+    component.assign(1, start);
+    seen[start] = 1;
+    VoidRegion v;
+    v.rim_min_m = std::numeric_limits<double>::infinity();
+    v.rim_max_m = -std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < component.size(); ++i) {
+      const int r = static_cast<int>(component[i] / grid.cols);
+      const int c = static_cast<int>(component[i] % grid.cols);
+      for (int rr = std::max(0, r - 1); rr <= std::min(grid.rows - 1, r + 1); ++rr)
+        for (int cc = std::max(0, c - 1); cc <= std::min(grid.cols - 1, c + 1); ++cc) {
+          const std::size_t n = static_cast<std::size_t>(rr) * grid.cols + cc;
+          if (!mask[n]) {
+            v.rim_min_m = std::min(v.rim_min_m, grid.heights_m[n]);
+            v.rim_max_m = std::max(v.rim_max_m, grid.heights_m[n]);
+          } else if (!seen[n]) {
+            seen[n] = 1;
+            component.push_back(n);
+          }
+        }
+    }
+    v.cells = static_cast<int>(component.size());
+    v.margin_m = std::isfinite(v.rim_max_m - v.rim_min_m) ? v.rim_max_m - v.rim_min_m : 0.0;
+    v.x_min = v.y_min = std::numeric_limits<double>::infinity();
+    v.x_max = v.y_max = -std::numeric_limits<double>::infinity();
+    for (const std::size_t k : component) {
+      grid.heights_m[k] += v.margin_m;
+      const double x = grid.x_of_col(static_cast<double>(k % grid.cols));
+      const double y = grid.y_of_row(static_cast<double>(k / grid.cols));
+      v.x_min = std::min(v.x_min, x);
+      v.x_max = std::max(v.x_max, x);
+      v.y_min = std::min(v.y_min, y);
+      v.y_max = std::max(v.y_max, y);
+    }
+    regions.push_back(v);
+  }
+  return regions;
+}
+
 void check_writable_grid(const world::RasterGrid& grid, const std::filesystem::path& path) {
   validate_raster_grid(grid, path.string());
 }
@@ -252,7 +298,11 @@ DemRaster read_dem(const std::filesystem::path& path) {
                                        "a usable DEM",
                                        voids, count));
   }
-  if (voids > 0) dem.voids_filled = fill_voids(grid, is_void);
+  if (voids > 0) {
+    dem.void_mask = is_void;
+    dem.voids_filled = fill_voids(grid, is_void);
+    dem.void_regions = raise_filled_voids(grid, dem.void_mask);
+  }
 
   const OGRSpatialReference* srs = ds->GetSpatialRef();
   if (srs != nullptr && !srs->IsEmpty()) {
@@ -349,30 +399,40 @@ Window trim_void_border(const world::RasterGrid& grid, const std::vector<char>& 
   return w;
 }
 
-}  // namespace
+// The DEM's CRS and the local frame's, both in (east, north) order. Throws InputError naming
+// the DEM when it has no CRS (it cannot be placed) or GDAL cannot read it back.
+struct FrameCrs {
+  OGRSpatialReference source;
+  OGRSpatialReference local;
+};
 
-world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
-                                const std::optional<LocalWindow>& window) {
+void load_frame_crs(const DemRaster& dem, const GeoFrame& frame, FrameCrs& crs) {
   if (!dem.has_crs) {
     throw InputError(dem.path,
                      "DEM has no CRS, so it cannot be placed relative to the geodetic origin; "
                      "give the file its CRS (e.g. gdal_edit.py -a_srs EPSG:NNNN, or a .prj "
                      "beside an ESRI grid)");
   }
-  register_gdal();
-  QuietGdalErrors quiet;
-  OGRSpatialReference source_srs;
-  if (source_srs.importFromWkt(dem.crs_wkt.c_str()) != OGRERR_NONE) {
+  if (crs.source.importFromWkt(dem.crs_wkt.c_str()) != OGRERR_NONE)
     throw InputError(dem.path, "GDAL cannot re-read the DEM's CRS: " + last_gdal_error());
-  }
-  OGRSpatialReference local_srs;
-  if (local_srs.SetFromUserInput(frame.proj_definition().c_str()) != OGRERR_NONE) {
+  if (crs.local.SetFromUserInput(frame.proj_definition().c_str()) != OGRERR_NONE)
     throw InputError("origin", "GDAL cannot build the local frame's CRS '" +
                                    frame.proj_definition() + "': " + last_gdal_error());
-  }
   // Geotransforms are (x = east/longitude, y = north/latitude) whatever the CRS's axis order.
-  source_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  local_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  crs.source.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  crs.local.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+}
+
+}  // namespace
+
+world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
+                                const std::optional<LocalWindow>& window) {
+  register_gdal();
+  QuietGdalErrors quiet;
+  FrameCrs crs;
+  load_frame_crs(dem, frame, crs);
+  OGRSpatialReference& source_srs = crs.source;
+  OGRSpatialReference& local_srs = crs.local;
 
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
   if (mem == nullptr) throw InputError(dem.path, "GDAL lacks the MEM driver");
@@ -507,6 +567,154 @@ world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
   fill_voids(grid, inner_void);
   validate_raster_grid(grid, dem.path);
   return grid;
+}
+
+MappedDem map_to_frame(const DemRaster& dem, const GeoFrame& frame, const LocalWindow& window) {
+  register_gdal();
+  QuietGdalErrors quiet;
+  FrameCrs crs;
+  load_frame_crs(dem, frame, crs);
+  OGRSpatialReference& source_srs = crs.source;
+  OGRSpatialReference& local_srs = crs.local;
+  std::unique_ptr<OGRCoordinateTransformation> to_source(
+      OGRCreateCoordinateTransformation(&local_srs, &source_srs));
+  if (!to_source)
+    throw InputError(dem.path, "GDAL/PROJ cannot transform the local frame into the DEM's CRS: " +
+                                   last_gdal_error());
+  auto transform = [&](std::vector<double>& xs, std::vector<double>& ys) {
+    std::vector<int> ok(xs.size(), 0);
+    if (!to_source->Transform(xs.size(), xs.data(), ys.data(), nullptr, ok.data()) ||
+        std::find(ok.begin(), ok.end(), 0) != ok.end())
+      throw InputError(dem.path,
+                       "PROJ cannot carry the area into the DEM's CRS (is the origin on the same "
+                       "side of the globe?): " +
+                           last_gdal_error());
+  };
+
+  const world::RasterGrid& in = dem.grid;
+  // The DEM's cell in metres, roughly (only to size the margin).
+  const double cell_m = dem.is_geographic ? std::max(in.cell_x_m, in.cell_y_m) * 111320.0
+                                          : std::max(in.cell_x_m, in.cell_y_m) * dem.linear_unit_m;
+  world::CoordinateMap map;
+  constexpr double kLatticeSpacingM = 50.0;
+  const double margin = 100.0 + 2.0 * cell_m;
+  const double x0 = window.x_min_m - margin, x1 = window.x_max_m + margin;
+  const double y0 = window.y_min_m - margin, y1 = window.y_max_m + margin;
+  map.nx = std::max(2, static_cast<int>(std::ceil((x1 - x0) / kLatticeSpacingM)) + 1);
+  map.ny = std::max(2, static_cast<int>(std::ceil((y1 - y0) / kLatticeSpacingM)) + 1);
+  map.x0_m = x0;
+  map.y0_m = y0;
+  map.dx_m = (x1 - x0) / (map.nx - 1);
+  map.dy_m = (y1 - y0) / (map.ny - 1);
+  std::vector<double> xs, ys;
+  for (int j = 0; j < map.ny; ++j)
+    for (int i = 0; i < map.nx; ++i) {
+      xs.push_back(x0 + i * map.dx_m);
+      ys.push_back(y0 + j * map.dy_m);
+    }
+  transform(xs, ys);
+  for (std::size_t k = 0; k < xs.size(); ++k) map.source.emplace_back(xs[k], ys[k]);
+  world::validate_coordinate_map(map, dem.path);
+
+  // The interpolation's error, where it is largest: the lattice cells' centres.
+  xs.clear();
+  ys.clear();
+  for (int j = 0; j + 1 < map.ny; ++j)
+    for (int i = 0; i + 1 < map.nx; ++i) {
+      xs.push_back(x0 + (i + 0.5) * map.dx_m);
+      ys.push_back(y0 + (j + 0.5) * map.dy_m);
+    }
+  std::vector<double> ex = xs, ey = ys;
+  transform(ex, ey);
+  Vec2 map_error = Vec2::Zero();
+  for (std::size_t k = 0; k < xs.size(); ++k) {
+    const Vec2 d = (map.at(xs[k], ys[k]) - Vec2(ex[k], ey[k])).cwiseAbs();
+    map_error = map_error.cwiseMax(d);
+  }
+
+  // The area must lie on the DEM's cells: its border, every 25 m, mapped inside them.
+  std::vector<Vec2> border;
+  const double width = window.x_max_m - window.x_min_m, depth = window.y_max_m - window.y_min_m;
+  const int nbx = std::max(2, static_cast<int>(std::ceil(width / 25.0)) + 1);
+  const int nby = std::max(2, static_cast<int>(std::ceil(depth / 25.0)) + 1);
+  for (int i = 0; i < nbx; ++i)
+    for (const double y : {window.y_min_m, window.y_max_m})
+      border.emplace_back(window.x_min_m + width * i / (nbx - 1), y);
+  for (int j = 0; j < nby; ++j)
+    for (const double x : {window.x_min_m, window.x_max_m})
+      border.emplace_back(x, window.y_min_m + depth * j / (nby - 1));
+  xs.clear();
+  ys.clear();
+  for (const Vec2& p : border) {
+    xs.push_back(p.x());
+    ys.push_back(p.y());
+  }
+  transform(xs, ys);
+  const double west = in.origin_x_m - 0.5 * in.cell_x_m;
+  const double south = in.origin_y_m - 0.5 * in.cell_y_m;
+  const double east = in.x_of_col(in.cols - 1) + 0.5 * in.cell_x_m;
+  const double north = in.y_of_row(in.rows - 1) + 0.5 * in.cell_y_m;
+  const double tol =
+      1e-9 * std::max({1.0, std::abs(west), std::abs(east), std::abs(south), std::abs(north)});
+  Vec2 area_min(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+  Vec2 area_max = -area_min;
+  for (std::size_t k = 0; k < xs.size(); ++k) {
+    area_min = area_min.cwiseMin(Vec2(xs[k], ys[k]));
+    area_max = area_max.cwiseMax(Vec2(xs[k], ys[k]));
+    if (xs[k] < west - tol || xs[k] > east + tol || ys[k] < south - tol || ys[k] > north + tol)
+      throw InputError(
+          "area",
+          fmt::format("x [{}, {}], y [{}, {}] m reaches beyond the DEM '{}': the local point "
+                      "({:.1f}, {:.1f}) is at ({:.6f}, {:.6f}) in the DEM's CRS, outside its "
+                      "cells [{:.6f}, {:.6f}] x [{:.6f}, {:.6f}]; terrain heights there would "
+                      "be invented; shrink the area or use a larger DEM",
+                      window.x_min_m, window.x_max_m, window.y_min_m, window.y_max_m, dem.path,
+                      border[k].x(), border[k].y(), xs[k], ys[k], west, east, south, north));
+  }
+
+  // The cut: every cell the lattice reaches, plus two.
+  Vec2 lo = map.source.front(), hi = map.source.front();
+  for (const Vec2& p : map.source) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  auto col_of = [&](double x) { return (x - in.origin_x_m) / in.cell_x_m; };
+  auto row_of = [&](double y) { return (y - in.origin_y_m) / in.cell_y_m; };
+  const int c0 = std::clamp(static_cast<int>(std::floor(col_of(lo.x()))) - 2, 0, in.cols - 1);
+  const int c1 = std::clamp(static_cast<int>(std::ceil(col_of(hi.x()))) + 2, 0, in.cols - 1);
+  const int r0 = std::clamp(static_cast<int>(std::floor(row_of(lo.y()))) - 2, 0, in.rows - 1);
+  const int r1 = std::clamp(static_cast<int>(std::ceil(row_of(hi.y()))) + 2, 0, in.rows - 1);
+  MappedDem out;
+  world::RasterGrid& cut = out.source;
+  cut.rows = r1 - r0 + 1;
+  cut.cols = c1 - c0 + 1;
+  cut.cell_x_m = in.cell_x_m;
+  cut.cell_y_m = in.cell_y_m;
+  cut.origin_x_m = in.x_of_col(c0);
+  cut.origin_y_m = in.y_of_row(r0);
+  for (int r = r0; r <= r1; ++r)
+    for (int c = c0; c <= c1; ++c) cut.heights_m.push_back(in.at(r, c));
+
+  const Vec2 slope = world::max_axis_slopes(cut);
+  out.map_error_m = slope.x() * map_error.x() + slope.y() * map_error.y();
+  out.map = std::move(map);
+
+  // Voids: those reaching into the cut, and the share of the area's cells that were void.
+  for (const VoidRegion& v : dem.void_regions)
+    if (v.x_max >= cut.origin_x_m && v.x_min <= cut.x_of_col(cut.cols - 1) &&
+        v.y_max >= cut.origin_y_m && v.y_min <= cut.y_of_row(cut.rows - 1))
+      out.voids.push_back(v);
+  const int ac0 = std::clamp(static_cast<int>(std::floor(col_of(area_min.x()))), 0, in.cols - 1);
+  const int ac1 = std::clamp(static_cast<int>(std::ceil(col_of(area_max.x()))), 0, in.cols - 1);
+  const int ar0 = std::clamp(static_cast<int>(std::floor(row_of(area_min.y()))), 0, in.rows - 1);
+  const int ar1 = std::clamp(static_cast<int>(std::ceil(row_of(area_max.y()))), 0, in.rows - 1);
+  for (int r = ar0; r <= ar1; ++r)
+    for (int c = ac0; c <= ac1; ++c) {
+      ++out.cells_in_area;
+      if (!dem.void_mask.empty() && dem.void_mask[static_cast<std::size_t>(r) * in.cols + c])
+        ++out.void_cells_in_area;
+    }
+  return out;
 }
 
 world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const GeoFrame& frame,

@@ -19,11 +19,26 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "io/geo_frame.hpp"
+#include "world/mapped_raster_terrain.hpp"
 #include "world/raster_grid.hpp"
 
 namespace ridgeline::io {
+
+/// A void of the DEM (no-data cells, 8-connected) and what filling it added. The filled heights
+/// are the rim's mean spread inwards PLUS the rim's height range (margin_m): a void can hide a
+/// peak, and no more than its rim says is known about it, so the fill stands at least as high
+/// as the highest rim cell and every clearance over it keeps that margin.
+struct VoidRegion {
+  int cells = 0;
+  /// Extent of the void's cell centres in the DEM's own coordinates (degrees if geographic).
+  double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;
+  double rim_min_m = 0.0;
+  double rim_max_m = 0.0;
+  double margin_m = 0.0;  ///< rim_max_m − rim_min_m, added to every filled height
+};
 
 struct DemRaster {
   /// Heights in metres. Spatial fields in the CRS's units: origin_x_m/origin_y_m is the
@@ -39,12 +54,15 @@ struct DemRaster {
   bool has_nodata = false;
   double nodata_value = 0.0;
   int voids_filled = 0;  ///< nodata cells filled from their valid neighbours
+  std::vector<VoidRegion> void_regions;  ///< every void, as filled
+  std::vector<char> void_mask;           ///< rows·cols, 1 where the DEM had no data
 };
 
 /// Reads band 1 of `path`. Voids (the band's nodata value, or non-finite values) are filled
 /// by repeated passes that set every void with at least one valid 8-neighbour to the mean of
 /// those neighbours (isolated voids take their neighbours' mean; larger holes fill from their
-/// rim inwards); the count is in voids_filled.
+/// rim inwards), then raised by their rim's height range (VoidRegion); the count is in
+/// voids_filled.
 /// Throws InputError naming the file when it is missing or unreadable, has no geotransform,
 /// is rotated or not north-up, has more than half its cells void, or heights in a unit other
 /// than metres or feet (feet are converted).
@@ -78,6 +96,23 @@ world::RasterGrid load_dem_in_frame(const std::filesystem::path& path, const Geo
 /// The same warp for an already read raster.
 world::RasterGrid warp_to_frame(const DemRaster& dem, const GeoFrame& frame,
                                 const std::optional<LocalWindow>& window = std::nullopt);
+
+/// The DEM in its own coordinates and the map that carries the local frame onto them
+/// (world/mapped_raster_terrain.hpp): no resampling, so every height is the DEM's own bilinear
+/// interpolation on its pixels.
+struct MappedDem {
+  world::RasterGrid source;       ///< the DEM cut to the area (plus a margin), its own coordinates
+  world::CoordinateMap map;       ///< local frame → the DEM's coordinates, on a 50 m lattice
+  double map_error_m = 0.0;       ///< height bound of the map's interpolation error
+  std::vector<VoidRegion> voids;  ///< the voids that reach into the cut
+  int void_cells_in_area = 0;     ///< DEM cells under the area that were void
+  int cells_in_area = 0;          ///< DEM cells under the area
+};
+
+/// Cuts the DEM to `window` of `frame` (plus a margin) and maps the window onto it with
+/// GDAL/PROJ. Throws InputError naming the file when it has no CRS, when PROJ cannot transform
+/// it, or when the window reaches beyond the DEM's cells (heights there would be invented).
+MappedDem map_to_frame(const DemRaster& dem, const GeoFrame& frame, const LocalWindow& window);
 
 /// Writes `grid` as a Float64 GeoTIFF in EPSG:`epsg`; the grid's coordinates are taken to be
 /// in that CRS (south-west cell centre = origin, see raster_grid.hpp). Throws InputError on an

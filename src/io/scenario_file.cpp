@@ -444,8 +444,8 @@ LoadedScenario load_scenario(const std::string& yaml_text, const std::string& so
   LoadedScenario loaded;
   loaded.source = source;
   loaded.scenario = parse_scenario(yaml_text, source, base_dir);
-  loaded.terrain =
-      build_terrain(loaded.scenario.terrain, loaded.scenario.origin, &loaded.scenario.area);
+  loaded.terrain = build_terrain(loaded.scenario.terrain, loaded.scenario.origin,
+                                 loaded.scenario.area, &loaded.terrain_report);
   std::vector<InputError> problems = mission::validate(loaded.scenario, *loaded.terrain);
   if (!problems.empty()) throw InvalidScenario(std::move(problems));
   return loaded;

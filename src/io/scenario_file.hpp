@@ -13,15 +13,32 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "io/dem_file.hpp"
 #include "mission/scenario.hpp"
 #include "world/terrain.hpp"
 
 namespace ridgeline::io {
 
 /// A parsed, validated scenario and the terrain it describes.
+/// What the terrain model is and how far it may stand from the source data: `validate`
+/// prints it, summary.json carries it.
+struct TerrainReport {
+  std::string model;              ///< e.g. "dem raster on its own pixels, mapped by PROJ"
+  double error_bound_m = 0.0;     ///< the terrain's model_error_m(), added to every clearance
+  std::string void_units;         ///< of the voids' extents: "deg" or the DEM's CRS unit
+  std::vector<VoidRegion> voids;  ///< the DEM's voids that reach the area, as filled
+  int void_cells_in_area = 0;
+  int cells_in_area = 0;
+};
+
+/// The share of the DEM's cells under the area that may be void (no data): more is an error
+/// naming terrain.dem.path. A filled void keeps its rim's height range as margin (VoidRegion).
+constexpr double kMaxVoidShareInArea = 0.10;
+
 struct LoadedScenario {
   mission::Scenario scenario;
   std::shared_ptr<const world::Terrain> terrain;
+  TerrainReport terrain_report;
   std::string source;  ///< file path, or "<default>"
 };
 
@@ -45,13 +62,16 @@ mission::Scenario parse_scenario(const std::string& yaml_text, const std::string
                                  const std::filesystem::path& base_dir);
 
 /// Builds the terrain a scenario names (reading and possibly fitting its DEM). With a geodetic
-/// origin a DEM in any CRS is warped into the origin's local frame (io/geo_frame.hpp);
-/// without one, a DEM in degrees is an error. With `area`, a DEM that does not cover it is an
-/// error naming `area` (heights beyond a DEM would be invented).
+/// origin a DEM in any CRS is placed in the origin's local frame (io/geo_frame.hpp): the
+/// raster model is queried on the DEM's own pixels through PROJ's map
+/// (world/mapped_raster_terrain.hpp), the fitted model is fitted to the DEM warped onto a
+/// local grid. Without an origin, a DEM in degrees is an error. A DEM that does not cover
+/// `area` is an error naming `area` (heights beyond a DEM would be invented); voids over more
+/// than kMaxVoidShareInArea of it, one naming terrain.dem.path. `report`, when given, says
+/// what was built.
 std::shared_ptr<const world::Terrain> build_terrain(
-    const mission::TerrainSource& source,
-    const std::optional<mission::GeodeticOrigin>& origin = std::nullopt,
-    const mission::Area* area = nullptr);
+    const mission::TerrainSource& source, const std::optional<mission::GeodeticOrigin>& origin,
+    const mission::Area& area, TerrainReport* report = nullptr);
 
 /// Parses, builds the terrain and validates. Throws InputError (or InvalidScenario).
 LoadedScenario load_scenario(const std::string& yaml_text, const std::string& source,

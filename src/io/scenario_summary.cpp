@@ -51,6 +51,22 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
     j["terrain"]["peaks"] = s.terrain.peaks.peaks.size();
   else
     j["terrain"]["dem"] = s.terrain.dem_path;
+  const TerrainReport& report = loaded.terrain_report;
+  j["terrain"]["model"] = report.model;
+  j["terrain"]["error_bound_m"] = report.error_bound_m;
+  if (s.terrain.kind == mission::TerrainSource::Kind::kDem) {
+    nlohmann::json voids = nlohmann::json::array();
+    for (const VoidRegion& v : report.voids)
+      voids.push_back({{"cells", v.cells},
+                       {"x", {v.x_min, v.x_max}},
+                       {"y", {v.y_min, v.y_max}},
+                       {"rim_m", {v.rim_min_m, v.rim_max_m}},
+                       {"margin_m", v.margin_m}});
+    j["terrain"]["voids"] = {{"units", report.void_units},
+                             {"regions", voids},
+                             {"cells_in_area", report.void_cells_in_area},
+                             {"area_cells", report.cells_in_area}};
+  }
 
   for (const mission::UavSpec& u : s.uavs) {
     const double ground = terrain.height(u.start_position_m.x(), u.start_position_m.y());
@@ -111,6 +127,28 @@ std::string summary_text(const nlohmann::json& j) {
       j["area_m"]["y"][0].get<double>(), j["area_m"]["y"][1].get<double>(),
       j["terrain"]["kind"].get<std::string>(), j["terrain"]["min_height_m"].get<double>(),
       j["terrain"]["max_height_m"].get<double>());
+  if (j["terrain"].contains("model")) {
+    out += fmt::format("  terrain model: {}; error bound {:.4f} m (added to every clearance)\n",
+                       j["terrain"]["model"].get<std::string>(),
+                       j["terrain"]["error_bound_m"].get<double>());
+  }
+  if (j["terrain"].contains("voids")) {
+    const auto& v = j["terrain"]["voids"];
+    if (v["regions"].empty()) {
+      out += "  DEM voids: none near the area\n";
+    } else {
+      out += fmt::format("  DEM voids filled: {} of {} cells under the area, {} region(s) near it:",
+                         v["cells_in_area"].get<int>(), v["area_cells"].get<int>(),
+                         v["regions"].size());
+      const std::string units = v["units"].get<std::string>();
+      for (const auto& r : v["regions"])
+        out += fmt::format(" {} cells at x {:.6f}..{:.6f}, y {:.6f}..{:.6f} {} (margin {:.1f} m);",
+                           r["cells"].get<int>(), r["x"][0].get<double>(), r["x"][1].get<double>(),
+                           r["y"][0].get<double>(), r["y"][1].get<double>(), units,
+                           r["margin_m"].get<double>());
+      out += "\n";
+    }
+  }
   out += fmt::format("  {} UAVs:", j["uavs"].size());
   for (const auto& u : j["uavs"])
     out += fmt::format(" {} (clearance {:.0f} m)", u["name"].get<std::string>(),

@@ -6,6 +6,7 @@
 #include "io/dem_file.hpp"
 #include "io/geo_frame.hpp"
 #include "io/scenario_file.hpp"
+#include "world/mapped_raster_terrain.hpp"
 #include "world/terrain.hpp"
 #include "world/terrain_fit.hpp"
 
@@ -39,39 +40,102 @@ void check_area_inside(const world::RasterGrid& grid, const mission::Area& area,
 
 std::shared_ptr<const world::Terrain> build_terrain(
     const mission::TerrainSource& source, const std::optional<mission::GeodeticOrigin>& origin,
-    const mission::Area* area) {
-  if (source.kind == mission::TerrainSource::Kind::kPeaks)
-    return std::make_shared<world::PeakTerrain>(source.peaks, "terrain");
+    const mission::Area& area, TerrainReport* report) {
+  TerrainReport local_report;
+  TerrainReport& r = report != nullptr ? *report : local_report;
+  if (source.kind == mission::TerrainSource::Kind::kPeaks) {
+    auto terrain = std::make_shared<world::PeakTerrain>(source.peaks, "terrain");
+    r.model = "peaks (eq. 12)";
+    r.error_bound_m = terrain->model_error_m();
+    return terrain;
+  }
 
-  world::RasterGrid grid;
+  const bool raster = source.dem_model == mission::TerrainSource::DemModel::kRaster;
+  // A malformed area is reported by validation; it only narrows the DEM when usable.
+  const bool area_usable = area.x_min_m < area.x_max_m && area.y_min_m < area.y_max_m &&
+                           std::isfinite(area.x_min_m + area.x_max_m + area.y_min_m + area.y_max_m);
+  const LocalWindow window{area.x_min_m, area.x_max_m, area.y_min_m, area.y_max_m};
+  std::shared_ptr<const world::Terrain> terrain;
+  world::RasterGrid grid;  // the local grid the fitted model is fitted to
   try {
-    std::optional<LocalWindow> window;
-    // A malformed area is reported by validation; it only narrows the warp when usable.
-    if (area != nullptr && area->x_min_m < area->x_max_m && area->y_min_m < area->y_max_m &&
-        std::isfinite(area->x_min_m + area->x_max_m + area->y_min_m + area->y_max_m))
-      window = LocalWindow{area->x_min_m, area->x_max_m, area->y_min_m, area->y_max_m};
-    grid = origin ? load_dem_in_frame(source.dem_path, GeoFrame(*origin), window)
-                  : load_dem_local(source.dem_path);
+    const DemRaster dem = read_dem(source.dem_path);
+    r.void_units = dem.is_geographic ? "deg" : "CRS units";
+    if (origin) {
+      const GeoFrame frame(*origin);
+      if (area_usable) {
+        MappedDem mapped = map_to_frame(dem, frame, window);
+        r.voids = mapped.voids;
+        r.void_cells_in_area = mapped.void_cells_in_area;
+        r.cells_in_area = mapped.cells_in_area;
+        if (raster)
+          terrain = std::make_shared<world::MappedRasterTerrain>(
+              std::move(mapped.source), std::move(mapped.map), mapped.map_error_m,
+              "terrain.dem.path");
+      }
+      if (!terrain) {
+        grid = warp_to_frame(dem, frame, area_usable ? std::optional(window) : std::nullopt);
+        if (area_usable) check_area_inside(grid, area, source.dem_path);
+      }
+      r.model = raster && terrain
+                    ? "dem raster on its own pixels, mapped into the local frame by PROJ"
+                    : "dem warped into the local frame (bilinear)";
+    } else {
+      grid = to_local_frame(dem);
+      if (area_usable) check_area_inside(grid, area, source.dem_path);
+      r.model = "dem raster on its own pixels";
+      r.voids = dem.void_regions;
+      // Local frame = the DEM's coordinates shifted: count the cells under the area.
+      for (int row = 0; row < grid.rows; ++row)
+        for (int col = 0; col < grid.cols; ++col) {
+          const double x = grid.x_of_col(col), y = grid.y_of_row(row);
+          if (x < area.x_min_m - 0.5 * grid.cell_x_m || x > area.x_max_m + 0.5 * grid.cell_x_m ||
+              y < area.y_min_m - 0.5 * grid.cell_y_m || y > area.y_max_m + 0.5 * grid.cell_y_m)
+            continue;
+          ++r.cells_in_area;
+          if (!dem.void_mask.empty() &&
+              dem.void_mask[static_cast<std::size_t>(row) * grid.cols + col])
+            ++r.void_cells_in_area;
+        }
+    }
   } catch (const InputError& e) {
+    if (e.field() == "area" || e.field() == "origin") throw;
     // The file's own error says what is wrong with it; the field says where it was named.
     throw InputError("terrain.dem.path", e.what());
   }
-  if (area != nullptr) check_area_inside(grid, *area, source.dem_path);
-  if (source.dem_model == mission::TerrainSource::DemModel::kRaster)
-    return std::make_shared<world::RasterTerrain>(std::move(grid), 0.0, "terrain.dem.path");
+  if (r.cells_in_area > 0 &&
+      r.void_cells_in_area > kMaxVoidShareInArea * static_cast<double>(r.cells_in_area))
+    throw InputError(
+        "terrain.dem.path",
+        fmt::format("'{}': {} of the {} DEM cells under the area are void (no data), "
+                    "{:.1f} %, more than the {:.0f} % a filled DEM may have there: "
+                    "a filled void can hide a peak; use a void-filled DEM product",
+                    source.dem_path, r.void_cells_in_area, r.cells_in_area,
+                    100.0 * r.void_cells_in_area / r.cells_in_area, 100.0 * kMaxVoidShareInArea));
+  if (terrain) {
+    r.error_bound_m = terrain->model_error_m();
+    return terrain;
+  }
+  if (raster) {
+    terrain = std::make_shared<world::RasterTerrain>(std::move(grid), 0.0, "terrain.dem.path");
+    r.error_bound_m = terrain->model_error_m();
+    return terrain;
+  }
 
   world::TerrainFitOptions options;
   options.num_peaks = source.dem_fit_peaks;
   options.combination = source.dem_fit_combination;
   const world::TerrainFitResult fit = world::fit_peak_terrain(grid, options);
   if (fit.status == world::TerrainFitStatus::kFailed) {
-    throw InputError("terrain.dem", fmt::format("fitting {} peaks to '{}' failed: {}",
-                                                source.dem_fit_peaks, source.dem_path,
-                                                fit.message));
+    throw InputError("terrain.dem",
+                     fmt::format("fitting {} peaks to '{}' failed: {}", source.dem_fit_peaks,
+                                 source.dem_path, fit.message));
   }
   // The fit's max residual travels with the field (model_error_m) and is added to every
   // terrain clearance check.
-  return std::make_shared<world::PeakTerrain>(fit.terrain, "terrain");
+  r.model = fmt::format("{} peaks fitted to the {}", source.dem_fit_peaks, r.model);
+  terrain = std::make_shared<world::PeakTerrain>(fit.terrain, "terrain");
+  r.error_bound_m = terrain->model_error_m();
+  return terrain;
 }
 
 }  // namespace ridgeline::io

@@ -137,13 +137,21 @@ TEST_F(DemFileTest, NodataVoidsAreFilledFromValidNeighbours) {
                          "70 80 90 100\n";
   const DemRaster dem = read_dem(file);
   EXPECT_EQ(dem.voids_filled, 3);
-  // Middle void (row 1, col 1): mean of its 8 valid neighbours 10 20 30 40 60 70 80 90 = 50.
-  EXPECT_DOUBLE_EQ(dem.grid.at(1, 1), 50.0);
-  // East edge, middle row (row 1, col 3): its valid neighbours are 90, 100 (south), 60 (west)
-  // and 30 (north-west): mean 70. Every void has a valid neighbour, so one pass fills all.
-  EXPECT_DOUBLE_EQ(dem.grid.at(1, 3), 70.0);
+  // Each void is spread from its rim and then raised by the rim's height range (a void can
+  // hide a peak; dem_file.hpp, VoidRegion). Two voids: the middle cell, and the 2-cell one at
+  // the east edge.
+  ASSERT_EQ(dem.void_regions.size(), 2u);
+  // Middle void (row 1, col 1): mean of its 8 valid neighbours 10 20 30 40 60 70 80 90 = 50,
+  // plus their range 90 − 10.
+  EXPECT_DOUBLE_EQ(dem.grid.at(1, 1), 50.0 + 80.0);
+  // The east void's rim: 30, 60, 90, 100 (range 70). Row 1, col 3: its valid neighbours are
+  // 90, 100 (south), 60 (west) and 30 (north-west): mean 70. Every void has a valid
+  // neighbour, so one pass fills all.
+  EXPECT_DOUBLE_EQ(dem.grid.at(1, 3), 70.0 + 70.0);
   // North-east corner (row 2, col 3): valid neighbours 30 (west) and 60 (south-west): 45.
-  EXPECT_DOUBLE_EQ(dem.grid.at(2, 3), 45.0);
+  EXPECT_DOUBLE_EQ(dem.grid.at(2, 3), 45.0 + 70.0);
+  for (const VoidRegion& v : dem.void_regions)
+    EXPECT_DOUBLE_EQ(v.margin_m, v.cells == 1 ? 80.0 : 70.0);
 }
 
 TEST_F(DemFileTest, MostlyVoidDemIsRejected) {
@@ -211,9 +219,10 @@ TEST_F(DemFileTest, SrtmHgtIsReadAsGeographicWithCorrectValues) {
   EXPECT_DOUBLE_EQ(dem.grid.at(0, 0), expected(0, 0));
   EXPECT_DOUBLE_EQ(dem.grid.at(1200, 1200), expected(1200, 1200));
   EXPECT_DOUBLE_EQ(dem.grid.at(17, 911), expected(17, 911));
-  // The void is filled with the mean of a plane's 8 neighbours: the plane's own value.
+  // The void is filled with the mean of a plane's 8 neighbours, the plane's own value, raised
+  // by their height range (2 rows + 2·2 columns = 6 m).
   EXPECT_EQ(dem.voids_filled, 1);
-  EXPECT_DOUBLE_EQ(dem.grid.at(600, 600), expected(600, 600));
+  EXPECT_DOUBLE_EQ(dem.grid.at(600, 600), expected(600, 600) + 6.0);
 }
 
 TEST_F(DemFileTest, GeographicDemIsRejectedByTheLocalFrameLoader) {
