@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include "world/smooth_terrain.hpp"
+
 namespace ridgeline::planning {
 namespace {
 
@@ -238,6 +240,12 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
     stage = Clock::now();
     TrajectoryProblem trajectory_problem;
     trajectory_problem.terrain = problem.terrain.get();
+    // On a raster the NLP works on its C² spline, h_safe kept above the raster by the
+    // spline's measured bound (world/smooth_terrain.hpp); stages 4 and 5 check the raster.
+    const std::shared_ptr<const world::Terrain> smooth = world::make_smooth_terrain(
+        *problem.terrain, {problem.area.min_m.x(), problem.area.max_m.x(), problem.area.min_m.y(),
+                           problem.area.max_m.y()});
+    trajectory_problem.optimization_terrain = smooth.get();
     trajectory_problem.limits = problem.limits;
     for (std::size_t i = 0; i < plan.uavs.size(); ++i)
       trajectory_problem.uavs.push_back(

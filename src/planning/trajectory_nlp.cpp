@@ -19,9 +19,6 @@ constexpr double kNormEps_m = 1e-3;
 // ε_c of the smooth climb σ(d_z) = ½(d_z + √(d_z² + ε_c²)).
 constexpr double kClimbEps_m = 0.1;
 constexpr double kInf = 1e19;  // Ipopt's default "infinity"
-// Step of the central differences of Terrain::gradient that give ∇²H: the peaks' widths are
-// tens of metres or more, so truncation (∝ step²) and round-off (∝ 1e-16/step) are both tiny.
-constexpr double kTerrainHessianStep_m = 1e-3;
 
 // Second-order forward-mode automatic differentiation: value, gradient and Hessian of an
 // expression in N seed variables. Only the operations the element functions use.
@@ -94,17 +91,6 @@ struct Dual2 {
     return r;
   }
 };
-
-Eigen::Matrix2d terrain_hessian(const world::Terrain& terrain, double x, double y) {
-  const double h = kTerrainHessianStep_m;
-  const Vec2 dx = (terrain.gradient(x + h, y) - terrain.gradient(x - h, y)) / (2.0 * h);
-  const Vec2 dy = (terrain.gradient(x, y + h) - terrain.gradient(x, y - h)) / (2.0 * h);
-  Eigen::Matrix2d H;
-  H(0, 0) = dx.x();
-  H(1, 1) = dy.y();
-  H(0, 1) = H(1, 0) = 0.5 * (dx.y() + dy.x());
-  return H;
-}
 
 // The point of segment [a, b] nearest to q; *interior says whether it lies strictly between
 // the ends (then the squared distance has Hessian 2(I − u uᵀ), else 2I).
@@ -833,7 +819,7 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
     const double coef = l1 * o.weight_altitude * q.nominal_m / o.altitude_scale_m;
     for (int k = 0; k <= n; ++k) {
       const int vp = 3 * point(i, k);
-      Eigen::Matrix2d H = -coef * terrain_hessian(terrain, x[vp], x[vp + 1]);
+      Eigen::Matrix2d H = -coef * terrain.hessian(x[vp], x[vp + 1]);
       if (convex) project_to_psd(H);
       add(vp, vp, H(0, 0));
       add(vp + 1, vp, H(1, 0));
@@ -849,7 +835,7 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
                                          x[3 * row.terms[m].point + 2]);
       // λ·∇²(z − H(q)) = −λ·∇²H on (x, y) of q = Σ w_m p_m: the block of points m, c is
       // w_m·w_c·(−λ∇²H), positive semidefinite when −λ∇²H is (w wᵀ is).
-      Eigen::Matrix2d H = -lambda[ri] * terrain_hessian(terrain, qp.x(), qp.y());
+      Eigen::Matrix2d H = -lambda[ri] * terrain.hessian(qp.x(), qp.y());
       if (convex) project_to_psd(H);
       for (int m = 0; m < row.num_terms; ++m)
         for (int c = 0; c <= m; ++c) {

@@ -454,7 +454,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   Candidates candidates = initial_candidates(team, options);
 
   NlpSetup setup;
-  setup.terrain = &terrain;
+  setup.terrain = problem.optimization_terrain != nullptr ? problem.optimization_terrain : &terrain;
   setup.uavs = team.uavs;
   setup.time_step_s = dt;
   setup.limits = limits;

@@ -129,7 +129,11 @@ struct TrajectoryUav {
 };
 
 struct TrajectoryProblem {
-  const world::Terrain* terrain = nullptr;  ///< must outlive the call
+  const world::Terrain* terrain = nullptr;  ///< must outlive the call; the dense check's
+  /// The terrain of the NLP's rows when set (must outlive the call): a smooth model of
+  /// `terrain` whose model_error_m() bounds how far `terrain` rises above it
+  /// (world/smooth_terrain.hpp), so its rows keep h_safe above `terrain`. Null: `terrain`.
+  const world::Terrain* optimization_terrain = nullptr;
   world::SafetyLimits limits;               ///< H_min, H_max, h_safe, d_safe (eq. 14, 19–21)
   std::vector<TrajectoryUav> uavs;
 };

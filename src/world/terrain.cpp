@@ -11,6 +11,19 @@
 
 namespace ridgeline::world {
 
+Eigen::Matrix2d Terrain::hessian(double x_m, double y_m) const {
+  // The peaks' widths and raster cells are tens of metres or more, so truncation (∝ h²) and
+  // round-off (∝ 1e-16/h) are both tiny at 1 mm.
+  constexpr double h = 1e-3;  // m
+  const Vec2 dx = (gradient(x_m + h, y_m) - gradient(x_m - h, y_m)) / (2.0 * h);
+  const Vec2 dy = (gradient(x_m, y_m + h) - gradient(x_m, y_m - h)) / (2.0 * h);
+  Eigen::Matrix2d H;
+  H(0, 0) = dx.x();
+  H(1, 1) = dy.y();
+  H(0, 1) = H(1, 0) = 0.5 * (dx.y() + dy.x());
+  return H;
+}
+
 namespace {
 
 void require_finite(double value, const std::string& field) {

@@ -22,6 +22,9 @@ class Terrain {
   virtual double height(double x_m, double y_m) const = 0;
   /// Gradient (dH/dx, dH/dy), dimensionless (m/m).
   virtual Vec2 gradient(double x_m, double y_m) const = 0;
+  /// Hessian of H (1/m). The default is central differences of gradient() at 1 mm, symmetrized;
+  /// a model with an analytic one overrides it.
+  virtual Eigen::Matrix2d hessian(double x_m, double y_m) const;
   /// Extra margin (m) a consumer should add to its clearance because the model is an
   /// approximation of the real ground (e.g. a fitted field's max residual). Zero if exact.
   virtual double model_error_m() const { return 0.0; }
