@@ -311,6 +311,11 @@ DemRaster read_dem(const std::filesystem::path& path) {
     if (srs->exportToWkt(&wkt) == OGRERR_NONE && wkt != nullptr) dem.crs_wkt = wkt;
     CPLFree(wkt);
     dem.is_geographic = srs->IsGeographic();
+    if (srs->IsCompound() || srs->IsVertical()) {
+      const char* datum = srs->GetAttrValue("VERT_DATUM");
+      const char* name = srs->GetAttrValue("VERT_CS");
+      dem.vertical_datum = datum != nullptr ? datum : (name != nullptr ? name : "");
+    }
     if (!dem.is_geographic) dem.linear_unit_m = srs->GetLinearUnits();
   }
   validate_raster_grid(grid, name);

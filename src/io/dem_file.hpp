@@ -55,6 +55,8 @@ struct DemRaster {
   double nodata_value = 0.0;
   int voids_filled = 0;  ///< nodata cells filled from their valid neighbours
   std::vector<VoidRegion> void_regions;  ///< every void, as filled
+  /// The vertical datum the file's CRS names (a compound CRS's vertical part), or empty.
+  std::string vertical_datum;
   std::vector<char> void_mask;           ///< rows·cols, 1 where the DEM had no data
 };
 

@@ -152,6 +152,7 @@ mission::TerrainSource parse_terrain(YamlMap& m, const fs::path& base_dir, int i
     if (source.dem_fit_peaks < 1 || source.dem_fit_peaks > 200)
       throw InputError(dem.path() + ".fit_peaks", fmt::format("must be in [1, 200], got {}", source.dem_fit_peaks));
     if (auto c = dem.optional("combination")) source.dem_fit_combination = parse_combination(*c);
+    source.dem_vertical_datum = dem.get_string("vertical_datum", "");
     dem.finish();
     m.finish();
     return source;

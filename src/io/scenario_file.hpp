@@ -29,6 +29,9 @@ struct TerrainReport {
   std::vector<VoidRegion> voids;  ///< the DEM's voids that reach the area, as filled
   int void_cells_in_area = 0;
   int cells_in_area = 0;
+  /// The heights' vertical datum and where that comes from (the DEM's CRS, the scenario's
+  /// `dem.vertical_datum`, or an assumption the run states).
+  std::string vertical_datum;
 };
 
 /// The share of the DEM's cells under the area that may be void (no data): more is an error

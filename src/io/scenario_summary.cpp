@@ -54,6 +54,7 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
   const TerrainReport& report = loaded.terrain_report;
   j["terrain"]["model"] = report.model;
   j["terrain"]["error_bound_m"] = report.error_bound_m;
+  j["terrain"]["vertical_datum"] = report.vertical_datum;
   if (s.terrain.kind == mission::TerrainSource::Kind::kDem) {
     nlohmann::json voids = nlohmann::json::array();
     for (const VoidRegion& v : report.voids)
@@ -131,6 +132,7 @@ std::string summary_text(const nlohmann::json& j) {
     out += fmt::format("  terrain model: {}; error bound {:.4f} m (added to every clearance)\n",
                        j["terrain"]["model"].get<std::string>(),
                        j["terrain"]["error_bound_m"].get<double>());
+    out += fmt::format("  vertical datum: {}\n", j["terrain"]["vertical_datum"].get<std::string>());
   }
   if (j["terrain"].contains("voids")) {
     const auto& v = j["terrain"]["voids"];

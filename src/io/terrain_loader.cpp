@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include "io/dem_file.hpp"
@@ -36,6 +37,34 @@ void check_area_inside(const world::RasterGrid& grid, const mission::Area& area,
   }
 }
 
+// Which vertical datum the heights are in, and why that is known: the DEM's CRS, the
+// scenario's statement (which must agree with the DEM's when both exist), or the assumption.
+std::string vertical_datum(const DemRaster& dem, const mission::TerrainSource& source,
+                           bool has_origin) {
+  const std::string& stated = source.dem_vertical_datum;
+  auto lower = [](std::string text) {
+    for (char& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return text;
+  };
+  if (!dem.vertical_datum.empty()) {
+    if (!stated.empty() && lower(dem.vertical_datum).find(lower(stated)) == std::string::npos)
+      throw InputError("terrain.dem.vertical_datum",
+                       fmt::format("'{}' disagrees with the DEM's own vertical datum '{}' ({}): "
+                                   "convert the DEM or correct the statement",
+                                   stated, dem.vertical_datum, dem.path));
+    return dem.vertical_datum + " (from the DEM's CRS)";
+  }
+  if (!stated.empty()) return stated + " (stated in the scenario)";
+  const std::string origin_note =
+      has_origin ? "; the origin's alt_amsl_m and every altitude are taken in the same datum" : "";
+  if (dem.driver == "SRTMHGT")
+    return "EGM96 geoid (assumed: SRTM heights are above EGM96; the file does not say)" +
+           origin_note;
+  return "not stated by the DEM or the scenario: heights as the DEM gives them (set "
+         "dem.vertical_datum, e.g. EGM96 for SRTM)" +
+         origin_note;
+}
+
 }  // namespace
 
 std::shared_ptr<const world::Terrain> build_terrain(
@@ -46,6 +75,7 @@ std::shared_ptr<const world::Terrain> build_terrain(
   if (source.kind == mission::TerrainSource::Kind::kPeaks) {
     auto terrain = std::make_shared<world::PeakTerrain>(source.peaks, "terrain");
     r.model = "peaks (eq. 12)";
+    r.vertical_datum = "the scenario's terrain datum (peaks)";
     r.error_bound_m = terrain->model_error_m();
     return terrain;
   }
@@ -60,6 +90,7 @@ std::shared_ptr<const world::Terrain> build_terrain(
   try {
     const DemRaster dem = read_dem(source.dem_path);
     r.void_units = dem.is_geographic ? "deg" : "CRS units";
+    r.vertical_datum = vertical_datum(dem, source, origin.has_value());
     if (origin) {
       const GeoFrame frame(*origin);
       if (area_usable) {
@@ -98,7 +129,7 @@ std::shared_ptr<const world::Terrain> build_terrain(
         }
     }
   } catch (const InputError& e) {
-    if (e.field() == "area" || e.field() == "origin") throw;
+    if (e.field() == "area" || e.field() == "origin" || e.field().starts_with("terrain.")) throw;
     // The file's own error says what is wrong with it; the field says where it was named.
     throw InputError("terrain.dem.path", e.what());
   }

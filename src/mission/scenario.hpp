@@ -62,6 +62,9 @@ struct TerrainSource {
   DemModel dem_model = DemModel::kRaster;
   int dem_fit_peaks = 8;
   world::PeakCombination dem_fit_combination = world::PeakCombination::kMax;
+  /// The vertical datum the scenario says the DEM's heights are in (`dem.vertical_datum`,
+  /// e.g. "EGM96" for SRTM), or empty. A DEM that names its own must agree.
+  std::string dem_vertical_datum;
 };
 
 struct UavSpec {

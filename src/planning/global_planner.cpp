@@ -299,15 +299,21 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   stage = Clock::now();
   const StageFailure failure = time_references(flying, nullptr, options, plan.uavs);
   plan.timing_time_s += seconds_since(stage);
+  // When the initial paths are the fallback, their failure is the second one: say the first.
+  const std::string after_optimizer =
+      plan.path_source == PathSource::kInitialPathsOptimizerFailed
+          ? " (the initial paths, flown because " + plan.optimizer_message + ")"
+          : "";
   if (failure.status != GlobalPlanStatus::kPlanned)
-    return fail(std::move(plan), failure.status, failure.message);
+    return fail(std::move(plan), failure.status, failure.message + after_optimizer);
 
   // 5. Dense validation of the final references.
   stage = Clock::now();
   const std::string violation = validate_references(problem, options, plan, plan.validation);
   plan.validation_time_s += seconds_since(stage);
   plan.total_time_s = seconds_since(start);
-  if (!violation.empty()) return fail(std::move(plan), GlobalPlanStatus::kValidationFailed, violation);
+  if (!violation.empty())
+    return fail(std::move(plan), GlobalPlanStatus::kValidationFailed, violation + after_optimizer);
   plan.status = GlobalPlanStatus::kPlanned;
   return plan;
 }
