@@ -27,9 +27,7 @@ learning::Observation DdpgAgent::observe(double t_s, const vehicle::State& state
   in.target_m =
       next >= 0 ? o.targets[static_cast<std::size_t>(next)].position_m : Vec3(state.head<3>());
   in.terrain = &terrain();
-  in.terrain_clearance_m = limits().terrain_clearance_m;
-  in.min_altitude_m = limits().altitude.min_m;
-  in.max_altitude_m = limits().altitude.max_m;
+  in.limits = limits();
   for (const world::Threat& th : threats())
     in.obstacles.push_back({th.centre_at(t_s), th.velocity_m_s, th.radius_m});
   for (const Neighbour& n : neighbours()) {

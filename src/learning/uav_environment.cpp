@@ -39,7 +39,7 @@ Observation make_observation(const ObservationInput& in, const vehicle::VehicleP
   const double v0 = vp.cruise_speed_m_s;
   const double error = in.terrain->model_error_m();
   auto clearance = [&](double x, double y) {
-    return p.z() - in.terrain->height(x, y) - error - in.terrain_clearance_m;
+    return p.z() - in.terrain->height(x, y) - error - in.limits.terrain_clearance_m;
   };
   int k = 0;
   o[k++] = clampf((s[vehicle::kV] - v0) / vp.speed_band_m_s, -2.0, 2.0);
@@ -89,8 +89,8 @@ Observation make_observation(const ObservationInput& in, const vehicle::VehicleP
   o[k++] = clampf(wind_b.x() / 5.0, -2.0, 2.0);
   o[k++] = clampf(wind_b.y() / 5.0, -2.0, 2.0);
   o[k++] = clampf(in.wind_m_s.z() / 5.0, -2.0, 2.0);
-  o[k++] = clampf((p.z() - in.min_altitude_m) / 100.0, 0.0, 2.0);
-  o[k++] = clampf((in.max_altitude_m - p.z()) / 100.0, 0.0, 2.0);
+  o[k++] = clampf((p.z() - in.limits.altitude.min_m) / 100.0, 0.0, 2.0);
+  o[k++] = clampf((in.limits.altitude.max_m - p.z()) / 100.0, 0.0, 2.0);
   return o;
 }
 
@@ -157,7 +157,7 @@ void validate(const EnvironmentOptions& o) {
   require(o.max_command_rate.allFinite() && o.max_command_rate.minCoeff() > 0.0, "max_command_rate",
           "must be positive and finite");
   require(o.target_radius_m > 0.0, "target_radius_m", "must be positive");
-  require(o.max_altitude_m > o.min_altitude_m, "max_altitude_m", "must exceed min_altitude_m");
+  world::validate(o.limits);
 }
 
 std::string_view to_string(TrainingTask task) {
@@ -213,7 +213,7 @@ EpisodeSetup UavEnvironment::random_episode(std::uint64_t seed) const {
   }
   auto altitude = [&](const Vec2& xy) {
     return std::clamp(e.terrain->height(xy.x(), xy.y()) + r.height_above_terrain_m,
-                      o.min_altitude_m + 5.0, o.max_altitude_m - 5.0);
+                      o.limits.altitude.min_m + 5.0, o.limits.altitude.max_m - 5.0);
   };
   // Start and target inside the area's inner 90 %, at a drawn distance.
   Vec2 start, target;
@@ -292,9 +292,7 @@ Observation UavEnvironment::observe() {
   in.wind_m_s = wind_estimate_;
   in.target_m = setup_.target_m;
   in.terrain = setup_.terrain.get();
-  in.terrain_clearance_m = options_.terrain_clearance_m;
-  in.min_altitude_m = options_.min_altitude_m;
-  in.max_altitude_m = options_.max_altitude_m;
+  in.limits = options_.limits;
   for (const world::Threat& th : setup_.threats)
     if (th.sensed_by(state_.head<3>(), options_.sensor_range_m, time_s_))
       in.obstacles.push_back({th.centre_at(time_s_), th.velocity_m_s, th.radius_m});
@@ -303,7 +301,7 @@ Observation UavEnvironment::observe() {
 
 double UavEnvironment::clearance_over_safe_m(const Vec3& p) const {
   return p.z() - setup_.terrain->height(p.x(), p.y()) - setup_.terrain->model_error_m() -
-         options_.terrain_clearance_m;
+         options_.limits.terrain_clearance_m;
 }
 
 double UavEnvironment::nearest_threat_surface_m(const Vec3& p) const {
@@ -317,8 +315,8 @@ EpisodeOutcome UavEnvironment::outcome() const {
   const Vec3 p = state_.head<3>();
   if (p.z() < setup_.terrain->height(p.x(), p.y())) return EpisodeOutcome::kTerrainCollision;
   if (nearest_threat_surface_m(p) < 0.0) return EpisodeOutcome::kThreatCollision;
-  if (p.z() < options_.min_altitude_m - options_.altitude_tolerance_m ||
-      p.z() > options_.max_altitude_m + options_.altitude_tolerance_m)
+  if (p.z() < options_.limits.altitude.min_m - options_.altitude_tolerance_m ||
+      p.z() > options_.limits.altitude.max_m + options_.altitude_tolerance_m)
     return EpisodeOutcome::kAltitudeViolation;
   if ((p - setup_.target_m).norm() <= options_.target_radius_m &&
       std::abs(p.z() - setup_.target_m.z()) <= options_.target_altitude_band_m)
@@ -368,7 +366,7 @@ StepResult UavEnvironment::step(const Vec3& action) {
   ri.threat_surface_m = nearest_threat_surface_m(p);
   ri.outcome = result;
   out.reward = compute_reward(ri, o.reward, o.vehicle.cruise_speed_m_s, o.action_period_s,
-                              o.threat_margin_m);
+                              o.limits.threat_margin_m);
   out.outcome = result;
   out.observation = observe();
   return out;

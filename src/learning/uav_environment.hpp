@@ -56,6 +56,7 @@
 
 #include "core/random.hpp"
 #include "vehicle/vehicle_model.hpp"
+#include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
 #include "world/wind.hpp"
@@ -84,9 +85,7 @@ struct ObservationInput {
   Vec3 target_m = Vec3::Zero();
   std::vector<ObstacleView> obstacles;
   const world::Terrain* terrain = nullptr;  ///< required
-  double terrain_clearance_m = 20.0;        ///< h_safe
-  double min_altitude_m = 40.0;
-  double max_altitude_m = 500.0;
+  world::SafetyLimits limits;               ///< h_safe and the band (world/safety_limits.hpp)
 };
 
 /// The scaled observation of the header comment. The terrain's model error is counted
@@ -179,10 +178,7 @@ struct EnvironmentOptions {
   Vec3 max_command_rate = Vec3(4.0, 1.5, 4.0);  ///< as baselines::BaselineAgentOptions
   double wind_filter_time_s = 0.5;
   double sensor_range_m = 300.0;
-  double terrain_clearance_m = 20.0;  ///< h_safe
-  double threat_margin_m = 10.0;      ///< r_safe
-  double min_altitude_m = 40.0;
-  double max_altitude_m = 500.0;
+  world::SafetyLimits limits;  ///< h_safe, r_safe and the band of the training episodes
   double altitude_tolerance_m = 20.0;
   double target_radius_m = 30.0;
   double target_altitude_band_m = 30.0;

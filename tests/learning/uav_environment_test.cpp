@@ -222,7 +222,7 @@ TEST(Environment, FlyingStraightAtCruiseReachesATargetAhead) {
 
 TEST(Environment, DivingEndsInTheTerrain) {
   EnvironmentOptions o = calm_options();
-  o.min_altitude_m = -1000.0;  // only the terrain can stop the dive
+  o.limits.altitude.min_m = -1000.0;  // only the terrain can stop the dive
   UavEnvironment env(o);
   env.reset(straight_episode(Vec3(3000, 0, 100)));
   StepResult step;
