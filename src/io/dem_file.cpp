@@ -602,7 +602,9 @@ MappedDem map_to_frame(const DemRaster& dem, const GeoFrame& frame, const LocalW
                                           : std::max(in.cell_x_m, in.cell_y_m) * dem.linear_unit_m;
   world::CoordinateMap map;
   constexpr double kLatticeSpacingM = 50.0;
-  const double margin = 100.0 + 2.0 * cell_m;
+  // Wide enough that a plan or a flight bulging out of the area (a turn, a detour) still
+  // meets the DEM's own heights, not a clamped border.
+  const double margin = 500.0 + 2.0 * cell_m;
   const double x0 = window.x_min_m - margin, x1 = window.x_max_m + margin;
   const double y0 = window.y_min_m - margin, y1 = window.y_max_m + margin;
   map.nx = std::max(2, static_cast<int>(std::ceil((x1 - x0) / kLatticeSpacingM)) + 1);

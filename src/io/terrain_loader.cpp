@@ -129,7 +129,9 @@ std::shared_ptr<const world::Terrain> build_terrain(
         }
     }
   } catch (const InputError& e) {
-    if (e.field() == "area" || e.field() == "origin" || e.field().starts_with("terrain.")) throw;
+    if (e.field() == "area" || e.field() == "origin" || e.field() == "terrain.dem.path" ||
+        e.field() == "terrain.dem.vertical_datum")
+      throw;
     // The file's own error says what is wrong with it; the field says where it was named.
     throw InputError("terrain.dem.path", e.what());
   }

@@ -79,7 +79,7 @@ std::string validate_references(const GlobalPlanningProblem& problem,
         summary.min_terrain_clearance_m = std::min(summary.min_terrain_clearance_m, clearance);
         summary.min_altitude_m = std::min(summary.min_altitude_m, p.z());
         summary.max_altitude_m = std::max(summary.max_altitude_m, p.z());
-        if (clearance < floor_m - 1e-6) {
+        if (!(clearance >= floor_m - 1e-6)) {  // NaN (a broken terrain query) fails too
           report(fmt::format("terrain clearance: {} at t = {:.2f} s, ({:.1f}, {:.1f}, {:.1f}) is "
                              "{:.2f} m above the terrain, below the required {:.2f} m",
                              uav.name, times[k], p.x(), p.y(), p.z(), clearance, floor_m));
@@ -242,9 +242,14 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
     trajectory_problem.terrain = problem.terrain.get();
     // On a raster the NLP works on its C² spline, h_safe kept above the raster by the
     // spline's measured bound (world/smooth_terrain.hpp); stages 4 and 5 check the raster.
-    const std::shared_ptr<const world::Terrain> smooth = world::make_smooth_terrain(
-        *problem.terrain, {problem.area.min_m.x(), problem.area.max_m.x(), problem.area.min_m.y(),
-                           problem.area.max_m.y()});
+    std::shared_ptr<const world::Terrain> smooth;
+    try {
+      smooth = world::make_smooth_terrain(
+          *problem.terrain, {problem.area.min_m.x(), problem.area.max_m.x(), problem.area.min_m.y(),
+                             problem.area.max_m.y()});
+    } catch (const std::exception&) {
+      smooth.reset();  // no envelope (e.g. memory): the NLP works on the raster itself
+    }
     trajectory_problem.optimization_terrain = smooth.get();
     trajectory_problem.limits = problem.limits;
     for (std::size_t i = 0; i < plan.uavs.size(); ++i)

@@ -1,11 +1,12 @@
 #include "planning/plan_validation.hpp"
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "core/error.hpp"
 
@@ -142,7 +143,9 @@ PlanValidationReport validate_plan(const world::Terrain& terrain,
       for (int q = 0; q <= pieces; ++q) {
         const double s = static_cast<double>(q) / pieces;
         const Vec3 p = a + s * (b - a);
-        const double clearance = p.z() - terrain.height(p.x(), p.y());
+        double clearance = p.z() - terrain.height(p.x(), p.y());
+        // A NaN height (a broken terrain query) is the worst clearance, never a pass.
+        if (std::isnan(clearance)) clearance = -std::numeric_limits<double>::infinity();
         ++report.terrain_samples;
         if (clearance < worst) {
           worst = clearance;

@@ -14,7 +14,8 @@ namespace {
 // node belongs to the cell before it); beyond the lattice, the border cell, extended.
 void lattice_axis(double coord, double origin, double spacing, int n, int& index, double& frac) {
   const double t = (coord - origin) / spacing;
-  index = std::clamp(static_cast<int>(std::floor(std::isfinite(t) ? t : 0.0)), 0, n - 2);
+  // Clamped as a double first: a wild trial point must not overflow the int conversion.
+  index = static_cast<int>(std::floor(std::clamp(std::isfinite(t) ? t : 0.0, 0.0, n - 2.0)));
   frac = t - index;
 }
 

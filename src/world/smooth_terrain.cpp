@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "core/error.hpp"
+
 namespace ridgeline::world {
 namespace {
 
@@ -69,6 +71,8 @@ BicubicSpline::BicubicSpline(const RasterGrid& grid)
       cell_s_(grid.cell_x_m),
       cell_t_(grid.cell_y_m) {
   validate_raster_grid(grid, "terrain.raster");
+  if (rows_ < 2 || cols_ < 2)
+    throw InputError("terrain.raster", "a B-spline needs at least 2 x 2 samples");
   const int w = cols_ + 2;
   // Rows first (into the interior rows of the control grid), then every column.
   control_.assign(static_cast<std::size_t>(rows_ + 2) * w, 0.0);
@@ -95,6 +99,20 @@ void BicubicSpline::raise_by(const std::vector<double>& cell_floor) {
           raise = std::max(raise, cell_floor[static_cast<std::size_t>(r) * cell_cols + c]);
       control_[static_cast<std::size_t>(a) * w + b] += raise;
     }
+}
+
+Vec2 BicubicSpline::second_derivative_bound(int row, int col) const {
+  const int w = cols_ + 2;
+  const int j = std::clamp(row, 0, std::max(0, rows_ - 2)),
+            i = std::clamp(col, 0, std::max(0, cols_ - 2));
+  auto c = [&](int a, int b) { return control_[static_cast<std::size_t>(j + a) * w + i + b]; };
+  double ss = 0.0, tt = 0.0;
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 2; ++b) {
+      ss = std::max(ss, std::abs(c(a, b) - 2.0 * c(a, b + 1) + c(a, b + 2)));
+      tt = std::max(tt, std::abs(c(b, a) - 2.0 * c(b + 1, a) + c(b + 2, a)));
+    }
+  return Vec2(ss / (cell_s_ * cell_s_), tt / (cell_t_ * cell_t_));
 }
 
 double BicubicSpline::evaluate(double s, double t, Vec2* gradient, Eigen::Matrix2d* hessian) const {
@@ -135,18 +153,41 @@ double BicubicSpline::evaluate(double s, double t, Vec2* gradient, Eigen::Matrix
 
 namespace {
 
-constexpr int kRefine = 4;  // fine cells per raster cell and axis
+// A raster with a single row (column) gets a copy of it one cell north (east): the same
+// bilinear surface (constant along that axis), and a spline with a cell to live in.
+RasterGrid at_least_two(const RasterGrid& grid) {
+  validate_raster_grid(grid, "terrain.raster");
+  RasterGrid g = grid;
+  if (g.cols == 1) {
+    std::vector<double> h;
+    for (int r = 0; r < g.rows; ++r) h.insert(h.end(), 2, g.at(r, 0));
+    g.heights_m = std::move(h);
+    g.cols = 2;
+  }
+  if (g.rows == 1) {
+    g.heights_m.insert(g.heights_m.end(), g.heights_m.begin(), g.heights_m.end());
+    g.rows = 2;
+  }
+  return g;
+}
 
-// The raster's bilinear surface sampled at cell/kRefine over the same extent.
-RasterGrid refined(const RasterGrid& grid) {
+// Fine cells per raster cell and axis: 4, or fewer on a large raster (memory: 16 doubles a
+// fine cell across the spline and the bound).
+int refinement(const RasterGrid& g) {
+  const double cells = static_cast<double>(g.rows - 1) * static_cast<double>(g.cols - 1);
+  return cells <= 250000.0 ? 4 : cells <= 1000000.0 ? 2 : 1;
+}
+
+// The raster's bilinear surface sampled at cell/k over the same extent.
+RasterGrid refined(const RasterGrid& grid, int k) {
   const RasterTerrain raster(grid);
   RasterGrid fine;
-  fine.rows = (grid.rows - 1) * kRefine + 1;
-  fine.cols = (grid.cols - 1) * kRefine + 1;
+  fine.rows = (grid.rows - 1) * k + 1;
+  fine.cols = (grid.cols - 1) * k + 1;
   fine.origin_x_m = grid.origin_x_m;
   fine.origin_y_m = grid.origin_y_m;
-  fine.cell_x_m = grid.cell_x_m / kRefine;
-  fine.cell_y_m = grid.cell_y_m / kRefine;
+  fine.cell_x_m = grid.cell_x_m / k;
+  fine.cell_y_m = grid.cell_y_m / k;
   fine.heights_m.reserve(static_cast<std::size_t>(fine.rows) * fine.cols);
   for (int r = 0; r < fine.rows; ++r)
     for (int c = 0; c < fine.cols; ++c)
@@ -158,35 +199,32 @@ RasterGrid refined(const RasterGrid& grid) {
 
 SmoothRasterTerrain::SmoothRasterTerrain(const RasterGrid& grid, const CoordinateMap* map,
                                          const PlanarBox& box, double exact_model_error_m)
-    : spline_(grid.rows >= 2 && grid.cols >= 2 ? refined(grid) : grid),
+    : grid_(at_least_two(grid)),
+      refine_(refinement(grid_)),
+      spline_(refined(grid_, refine_)),
       mapped_(map != nullptr),
       exact_model_error_m_(exact_model_error_m) {
   if (map != nullptr) map_ = *map;
-  const RasterTerrain raster(grid);
-  const bool fine = grid.rows >= 2 && grid.cols >= 2;
-  const int k = fine ? kRefine : 1;
-  const int cell_rows = std::max(1, (grid.rows - 1) * k),
-            cell_cols = std::max(1, (grid.cols - 1) * k);
-  const double hs = grid.cell_x_m / k, ht = grid.cell_y_m / k;
+  const RasterGrid& g = grid_;
+  const RasterTerrain raster(g);
+  const int k = refine_;
+  const int cell_rows = (g.rows - 1) * k, cell_cols = (g.cols - 1) * k;
+  const double hs = g.cell_x_m / k, ht = g.cell_y_m / k;
   // 2. The raster's rise above the spline in every fine cell, at 3 × 3 points plus the bound
-  // between them (spacing h/2).
+  // between them (spacing h/2): inside a fine cell the raster is linear along each axis, so
+  // the difference's second derivatives along the axes are the spline's.
   std::vector<double> floor(static_cast<std::size_t>(cell_rows) * cell_cols, 0.0);
   for (int r = 0; r < cell_rows; ++r)
     for (int c = 0; c < cell_cols; ++c) {
-      double rise = -std::numeric_limits<double>::infinity(), curv_s = 0.0, curv_t = 0.0;
+      double rise = -std::numeric_limits<double>::infinity();
       for (int a = 0; a <= 2; ++a)
         for (int b = 0; b <= 2; ++b) {
-          const double s = grid.origin_x_m + (c + 0.5 * b) * hs;
-          const double t = grid.origin_y_m + (r + 0.5 * a) * ht;
-          Eigen::Matrix2d h;
-          rise = std::max(rise, raster.height(s, t) - spline_.evaluate(s, t, nullptr, &h));
-          curv_s = std::max(curv_s, std::abs(h(0, 0)));
-          curv_t = std::max(curv_t, std::abs(h(1, 1)));
+          const double s = g.origin_x_m + (c + 0.5 * b) * hs;
+          const double t = g.origin_y_m + (r + 0.5 * a) * ht;
+          rise = std::max(rise, raster.height(s, t) - spline_.evaluate(s, t));
         }
-      // Inside a fine cell the raster is linear along each axis: the difference's second
-      // derivatives along the axes are the spline's (10 % for where the samples missed their
-      // largest value).
-      const double between = 1.1 * (curv_s * 0.25 * hs * hs + curv_t * 0.25 * ht * ht) / 8.0;
+      const Vec2 m = spline_.second_derivative_bound(r, c);
+      const double between = (m.x() * 0.25 * hs * hs + m.y() * 0.25 * ht * ht) / 8.0;
       floor[static_cast<std::size_t>(r) * cell_cols + c] = std::max(0.0, rise + between);
     }
   // 3. Raised so that no cell lies below the raster.
@@ -203,22 +241,21 @@ SmoothRasterTerrain::SmoothRasterTerrain(const RasterGrid& grid, const Coordinat
       t_lo = std::min(t_lo, p.y());
       t_hi = std::max(t_hi, p.y());
     }
-  const int c0 =
-      std::clamp(static_cast<int>(std::floor((s_lo - grid.origin_x_m) / hs)), 0, cell_cols - 1);
-  const int c1 =
-      std::clamp(static_cast<int>(std::ceil((s_hi - grid.origin_x_m) / hs)), 0, cell_cols - 1);
-  const int r0 =
-      std::clamp(static_cast<int>(std::floor((t_lo - grid.origin_y_m) / ht)), 0, cell_rows - 1);
-  const int r1 =
-      std::clamp(static_cast<int>(std::ceil((t_hi - grid.origin_y_m) / ht)), 0, cell_rows - 1);
+  auto index = [](double v, int n) {
+    return static_cast<int>(std::clamp(std::isfinite(v) ? v : 0.0, 0.0, n - 1.0));
+  };
+  const int c0 = index(std::floor((s_lo - g.origin_x_m) / hs), cell_cols);
+  const int c1 = index(std::ceil((s_hi - g.origin_x_m) / hs), cell_cols);
+  const int r0 = index(std::floor((t_lo - g.origin_y_m) / ht), cell_rows);
+  const int r1 = index(std::ceil((t_hi - g.origin_y_m) / ht), cell_rows);
   envelope_above_m_ = 0.0;
   raster_above_m_ = -std::numeric_limits<double>::infinity();
   for (int r = r0; r <= r1; ++r)
     for (int c = c0; c <= c1; ++c)
       for (int a = 0; a <= 1; ++a)
         for (int b = 0; b <= 1; ++b) {
-          const double s = grid.origin_x_m + (c + 0.5 * b) * hs;
-          const double t = grid.origin_y_m + (r + 0.5 * a) * ht;
+          const double s = g.origin_x_m + (c + 0.5 * b) * hs;
+          const double t = g.origin_y_m + (r + 0.5 * a) * ht;
           const double d = raster.height(s, t) - spline_.evaluate(s, t);
           raster_above_m_ = std::max(raster_above_m_, d);
           envelope_above_m_ = std::max(envelope_above_m_, -d);

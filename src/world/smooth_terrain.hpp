@@ -5,12 +5,13 @@
 // Newton steps on such rows stall (a 30 m UTM ridge stopped at the 800-iteration limit). The
 // optimizer gets instead a C² upper envelope of the raster, with analytic gradient and Hessian:
 //   1. the raster's bilinear surface is sampled at a quarter of its cell (so the spline
-//      follows its kinks closely) and interpolated by the uniform cubic B-spline through those
-//      samples (natural end conditions, tensor product);
+//      follows its kinks closely; half or the cell itself on rasters of over 250 000 or
+//      1 000 000 cells, to bound memory) and interpolated by the uniform cubic B-spline through
+//      those samples (natural end conditions, tensor product);
 //   2. in every fine cell, the amount d by which the raster rises above that spline is
-//      measured (3 × 3 points, plus the interpolation bound M·h²/8 between them, M the
-//      spline's largest second derivative there: inside a fine cell the raster is linear along
-//      each axis);
+//      measured (3 × 3 points, plus the interpolation bound M·h²/8 between them, M the bound of
+//      the spline's second derivative in the cell from its control points: inside a fine cell
+//      the raster is linear along each axis);
 //   3. a second B-spline whose control points are the largest d over the 4 × 4 cells each
 //      control point weighs on is added: its value in a cell is a convex combination of
 //      controls that are all ≥ that cell's d, so the sum never lies below the raster.
@@ -19,6 +20,7 @@
 // measured too and reported. The dense check of a plan still uses the raster itself.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -29,8 +31,9 @@
 
 namespace ridgeline::world {
 
-/// The uniform cubic B-spline through every sample of a raster (raster_grid.hpp's cell-centre
-/// convention), in the raster's own coordinates. Beyond the outer samples it is held constant
+/// The uniform cubic B-spline through every sample of a raster of at least 2 × 2 samples
+/// (raster_grid.hpp's cell-centre convention; InputError otherwise), in the raster's own
+/// coordinates. Beyond the outer samples it is held constant
 /// across the border (as RasterTerrain): value clamped, derivative across zero.
 class BicubicSpline {
  public:
@@ -39,6 +42,10 @@ class BicubicSpline {
   /// the cells it weighs on (cell_floor: (rows − 1) × (cols − 1), one value a cell, ≥ 0): the
   /// spline then rises by at least cell_floor[c] everywhere in cell c.
   void raise_by(const std::vector<double>& cell_floor);
+  /// Bounds of |∂²S/∂s²| and |∂²S/∂t²| over cell (row, col), per unit² of the raster's
+  /// coordinates: inside a cell they are convex combinations of the control points' second
+  /// differences, so the largest of those (over the cell's 4 × 4 controls) bounds them.
+  Vec2 second_derivative_bound(int row, int col) const;
   /// S(s, t), and its gradient and Hessian (per unit of the raster's coordinates) when asked.
   double evaluate(double s, double t, Vec2* gradient = nullptr,
                   Eigen::Matrix2d* hessian = nullptr) const;
@@ -65,7 +72,11 @@ class SmoothRasterTerrain : public Terrain {
   double height(double x_m, double y_m) const override;
   Vec2 gradient(double x_m, double y_m) const override;
   Eigen::Matrix2d hessian(double x_m, double y_m) const override;
-  double model_error_m() const override { return exact_model_error_m_; }
+  /// The raster model's own error; plus raster_above_m() should the check ever find the
+  /// raster above the envelope (it never has: the construction guarantees it).
+  double model_error_m() const override {
+    return exact_model_error_m_ + std::max(0.0, raster_above_m_);
+  }
 
   /// How far the envelope stands above the raster at most, over the box (m): its
   /// conservatism (sampled at the fine cells' corners and centres).
@@ -77,6 +88,8 @@ class SmoothRasterTerrain : public Terrain {
  private:
   Vec2 source(double x_m, double y_m, Eigen::Matrix2d* jacobian) const;
 
+  RasterGrid grid_;  ///< the raster, with a single row or column doubled
+  int refine_ = 1;   ///< fine cells per raster cell and axis
   BicubicSpline spline_;
   bool mapped_ = false;
   CoordinateMap map_;

@@ -9,6 +9,7 @@
 
 #include <cmath>
 
+#include "core/error.hpp"
 #include "core/random.hpp"
 
 namespace ridgeline::world {
@@ -128,6 +129,30 @@ TEST(SmoothRasterTerrain, ThroughACoordinateMapItIsTheEnvelopeOfTheMappedRaster)
   }
   // Peaks have no envelope: they are smooth already.
   EXPECT_EQ(make_smooth_terrain(PeakTerrain(PeakTerrainConfig{}), {0, 1, 0, 1}), nullptr);
+}
+
+TEST(SmoothRasterTerrain, ASingleRowOrColumnRasterIsEnvelopedToo) {
+  for (const bool one_row : {true, false}) {
+    RasterGrid g;
+    g.rows = one_row ? 1 : 12;
+    g.cols = one_row ? 12 : 1;
+    g.cell_x_m = g.cell_y_m = 25.0;
+    for (int k = 0; k < 12; ++k) g.heights_m.push_back(300.0 + 40.0 * std::sin(1.3 * k));
+    const RasterTerrain raster(g);
+    const auto smooth = make_smooth_terrain(raster, {-50.0, 350.0, -50.0, 350.0});
+    ASSERT_NE(smooth, nullptr);
+    for (double x = -60.0; x <= 360.0; x += 3.7)
+      for (double y = -60.0; y <= 360.0; y += 9.1) {
+        const double h = smooth->height(x, y);
+        ASSERT_TRUE(std::isfinite(h));
+        ASSERT_LE(raster.height(x, y) - h, 1e-9) << x << ", " << y;
+      }
+  }
+  RasterGrid single;
+  single.rows = 1;
+  single.cols = 3;
+  single.heights_m = {1.0, 2.0, 3.0};
+  EXPECT_THROW(BicubicSpline{single}, InputError);
 }
 
 }  // namespace
