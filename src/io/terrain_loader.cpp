@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "io/dem_file.hpp"
 #include "io/geo_frame.hpp"
@@ -42,12 +44,25 @@ void check_area_inside(const world::RasterGrid& grid, const mission::Area& area,
 std::string vertical_datum(const DemRaster& dem, const mission::TerrainSource& source,
                            bool has_origin) {
   const std::string& stated = source.dem_vertical_datum;
-  auto lower = [](std::string text) {
-    for (char& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    return text;
+  // Names compare as lower-case alphanumeric words: "egm96" matches "EGM96 geoid", "EGM" does
+  // not match "EGM2008", and a statement may also spell the DEM's whole name.
+  auto words = [](const std::string& text) {
+    std::vector<std::string> out(1);
+    for (const char ch : text) {
+      if (std::isalnum(static_cast<unsigned char>(ch)))
+        out.back() += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      else if (!out.back().empty())
+        out.emplace_back();
+    }
+    if (out.back().empty()) out.pop_back();
+    return out;
   };
   if (!dem.vertical_datum.empty()) {
-    if (!stated.empty() && lower(dem.vertical_datum).find(lower(stated)) == std::string::npos)
+    const std::vector<std::string> declared = words(dem.vertical_datum), said = words(stated);
+    const bool agrees = said.empty() || said == declared ||
+                        (said.size() == 1 && std::find(declared.begin(), declared.end(),
+                                                       said.front()) != declared.end());
+    if (!agrees)
       throw InputError("terrain.dem.vertical_datum",
                        fmt::format("'{}' disagrees with the DEM's own vertical datum '{}' ({}): "
                                    "convert the DEM or correct the statement",

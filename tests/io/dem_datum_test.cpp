@@ -75,6 +75,9 @@ TEST(DemVerticalDatum, ItsSourceIsStatedAndAContradictionIsAnError) {
   EXPECT_NE(vertical_datum_line(dir / "c.yaml").find("from the DEM's CRS"), std::string::npos);
   std::ofstream(dir / "d.yaml") << scenario("egm96.tif", ", vertical_datum: egm96");
   EXPECT_NO_THROW(load_scenario_file(dir / "d.yaml"));
+  // A part of a name is not the name: "EGM" could be EGM2008.
+  std::ofstream(dir / "f.yaml") << scenario("egm96.tif", ", vertical_datum: EGM");
+  EXPECT_THROW(load_scenario_file(dir / "f.yaml"), InputError);
   std::ofstream(dir / "e.yaml") << scenario("egm96.tif", ", vertical_datum: NAVD88");
   try {
     load_scenario_file(dir / "e.yaml");
