@@ -64,9 +64,10 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
     threats[i].radius_m = 25.0;
   }
   auto neighbour = [&](int id, double lead_s, double offset_m) {
-    mpc::NeighbourPrediction nb;
-    nb.uav_id = id;
+    messages::PredictedTrajectory nb;
+    nb.uav = id;
     nb.step_s = 0.5;
+    nb.stamp_s = -nb.step_s;  // the first position at t = 0
     for (int i = 0; i < 400; ++i) {
       const mpc::ReferencePoint r = reference.at(i * 0.5 + lead_s);
       const Vec3 left(-std::sin(r.heading_rad), std::cos(r.heading_rad), 0.0);
@@ -74,8 +75,8 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
     }
     return nb;
   };
-  const std::vector<mpc::NeighbourPrediction> neighbours{neighbour(1, 2.5, 15.0),
-                                                         neighbour(2, -2.5, -15.0)};
+  const std::vector<messages::PredictedTrajectory> neighbours{neighbour(1, 2.5, 15.0),
+                                                              neighbour(2, -2.5, -15.0)};
   // Hills under the circle, 60–90 m below the flight: inside the terrain rows' activation.
   world::PeakTerrainConfig hills;
   hills.peaks = {{150, 0, 80, 120, 120}, {-100, 120, 80, 120, 120}, {0, -150, 80, 120, 120}};

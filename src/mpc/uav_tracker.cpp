@@ -102,28 +102,6 @@ void validate(const UavTrackerOptions& o) {
   require(positive(o.slack_quadratic_weight), "slack_quadratic_weight", "must be finite and > 0");
 }
 
-Vec3 NeighbourPrediction::position_at(double t_s) const {
-  const int n = static_cast<int>(positions_m.size());
-  if (n == 1) return positions_m.front();
-  const double f = (t_s - first_time_s) / step_s;
-  int i = static_cast<int>(std::floor(f));
-  i = std::clamp(i, 0, n - 2);  // outside the samples: the nearest segment, extrapolated
-  const double a = f - i;
-  return positions_m[i] + a * (positions_m[i + 1] - positions_m[i]);
-}
-
-NeighbourPrediction UavTrackerResult::as_broadcast(int uav_id) const {
-  NeighbourPrediction msg;
-  msg.uav_id = uav_id;
-  msg.first_time_s = first_prediction_time_s;
-  msg.step_s = prediction_step_s;
-  msg.positions_m.reserve(predicted_positions_m.cols());
-  for (int j = 0; j < predicted_positions_m.cols(); ++j) {
-    msg.positions_m.push_back(predicted_positions_m.col(j));
-  }
-  return msg;
-}
-
 UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimits& limits)
     : options_(options),
       limits_(limits),
@@ -348,13 +326,13 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       std::min<int>(static_cast<int>(env.neighbours.size()), options_.max_neighbours);
   result_.dropped_neighbours = static_cast<int>(env.neighbours.size()) - num_neighbours;
   for (int k = 0; k < num_neighbours; ++k) {
-    const NeighbourPrediction& nb = env.neighbours[k];
+    const messages::PredictedTrajectory& nb = env.neighbours[k];
     if (nb.positions_m.empty() || !(nb.step_s > 0.0)) {
       ++result_.dropped_neighbours;
       continue;
     }
     for (int j = 0; j < np_; ++j) {
-      const Vec3 q = nb.position_at(t_s + (j + 1) * dt);
+      const Vec3 q = messages::predicted_position(nb, t_s + (j + 1) * dt);
       double dist = 0.0;
       const Vec3 n = normal(nominal_positions_.col(j), q, dist);
       if (dist - limits_.separation_m > activation) continue;

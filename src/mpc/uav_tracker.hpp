@@ -56,6 +56,7 @@
 #include <span>
 #include <vector>
 
+#include "messages/messages.hpp"
 #include "mpc/incremental_mpc.hpp"
 #include "mpc/reference.hpp"
 #include "vehicle/vehicle_model.hpp"
@@ -64,19 +65,6 @@
 #include "world/threat.hpp"
 
 namespace ridgeline::mpc {
-
-/// A neighbour's broadcast prediction (DESIGN §1, PredictedTrajectory): positions_m[i] is
-/// its predicted position at first_time_s + i·step_s. Between samples it is interpolated
-/// linearly; outside them extrapolated with the nearest segment's velocity.
-struct NeighbourPrediction {
-  int uav_id = -1;
-  double first_time_s = 0.0;
-  double step_s = 0.1;  ///< > 0
-  std::vector<Vec3> positions_m;
-
-  /// Position at time t (requires ≥ 1 position).
-  Vec3 position_at(double t_s) const;
-};
 
 /// What the nominal trajectory of the linearization follows (step 2 above). Near the
 /// reference both agree to first order. Far from it they do not: the Jacobians rotate with
@@ -136,7 +124,7 @@ constexpr int kSoftConstraintKinds = 3;
 /// The world around the UAV for one step. Pointers/spans must stay valid during step().
 struct TrackerEnvironment {
   std::span<const world::Threat> threats;
-  std::span<const NeighbourPrediction> neighbours;
+  std::span<const messages::PredictedTrajectory> neighbours;  ///< as broadcast (messages/)
   const world::Terrain* terrain = nullptr;
 };
 
@@ -166,8 +154,6 @@ struct UavTrackerResult {
   int dropped_neighbours = 0;
 
   double max_slack_m() const { return std::max({slack_m[0], slack_m[1], slack_m[2]}); }
-  /// The prediction as a broadcast message for neighbours (allocates).
-  NeighbourPrediction as_broadcast(int uav_id) const;
 };
 
 class UavTracker {

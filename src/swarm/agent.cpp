@@ -86,13 +86,9 @@ void Agent::receive(const Envelope& envelope) {
       return;
     }
     auto it = neighbours_.find(p->uav);
-    if (it != neighbours_.end() && it->second.stamp_s >= p->stamp_s) return;  // reordered
-    KnownNeighbour& n = neighbours_[p->uav];
-    n.stamp_s = p->stamp_s;
-    n.prediction.uav_id = p->uav;
-    n.prediction.first_time_s = p->stamp_s + p->step_s;
-    n.prediction.step_s = p->step_s;
-    n.prediction.positions_m = p->positions_m;
+    if (it != neighbours_.end() && it->second.prediction.stamp_s >= p->stamp_s)
+      return;  // reordered
+    neighbours_[p->uav].prediction = *p;
   } else if (const auto* r = std::get_if<ThreatReport>(&envelope.message)) {
     auto it = threats_.find(r->threat_id);
     if (it != threats_.end() && it->second.threat.appear_s >= r->stamp_s) return;
@@ -242,16 +238,16 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
   constexpr double kStationary = 0.5;   // m/s: a neighbour this slow will not give way
   int added = 0;
   for (const auto& [id, n] : neighbours_) {
-    const mpc::NeighbourPrediction& nb = n.prediction;
+    const PredictedTrajectory& nb = n.prediction;
     const int count = static_cast<int>(nb.positions_m.size());
     // Mean velocity over the broadcast horizon: extrapolating the last segment alone would
     // magnify the end of a turn.
     const Vec3 velocity = count >= 2 ? Vec3((nb.positions_m.back() - nb.positions_m.front()) /
                                             (nb.step_s * (count - 1)))
                                      : Vec3::Zero();
-    const double predicted_end = nb.first_time_s + nb.step_s * std::max(count - 1, 0);
+    const double predicted_end = (nb.stamp_s + nb.step_s) + nb.step_s * std::max(count - 1, 0);
     const auto neighbour_at = [&](double t) {
-      return t <= predicted_end ? nb.position_at(t)
+      return t <= predicted_end ? messages::predicted_position(nb, t)
                                 : Vec3(nb.positions_m.back() + velocity * (t - predicted_end));
     };
     const bool stationary = velocity.norm() < kStationary;
@@ -336,7 +332,7 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
   bool stale = false;
   for (const auto& [id, n] : neighbours_) {
     neighbour_buffer_.push_back(n.prediction);
-    stale = stale || t_s - n.stamp_s > options_.neighbour_stale_s;
+    stale = stale || t_s - n.prediction.stamp_s > options_.neighbour_stale_s;
   }
   counters_.stale_neighbour_steps += stale ? 1 : 0;
   const mpc::TrackerEnvironment environment{threat_buffer_, neighbour_buffer_, terrain_.get()};

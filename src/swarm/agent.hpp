@@ -153,8 +153,7 @@ class Agent final : public UavAgent {
     double last_reported_s = -1e9;  ///< last time this agent broadcast it
   };
   struct KnownNeighbour {
-    mpc::NeighbourPrediction prediction;
-    double stamp_s = 0.0;
+    PredictedTrajectory prediction;  ///< the newest received, as broadcast
   };
 
   void update_mission(double t_s, const Vec3& position_m);
@@ -175,7 +174,7 @@ class Agent final : public UavAgent {
   std::map<int, KnownThreat> threats_;
   std::map<int, KnownNeighbour> neighbours_;
   std::vector<world::Threat> threat_buffer_;
-  std::vector<mpc::NeighbourPrediction> neighbour_buffer_;
+  std::vector<PredictedTrajectory> neighbour_buffer_;
   AgentMode mode_ = AgentMode::kTracking;
   int next_target_ = 0;
   std::vector<std::string> missed_;

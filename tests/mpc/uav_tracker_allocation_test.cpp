@@ -85,11 +85,12 @@ TEST(UavTrackerAllocation, StepDoesNotAllocateAfterWarmUp) {
   std::vector<world::Threat> threats(1);
   threats[0].centre_m = Vec3(0.0, 0.0, 120.0);  // the circle's centre: rows active, never hit
   threats[0].radius_m = 100.0;
-  std::vector<NeighbourPrediction> neighbours(1);
+  std::vector<messages::PredictedTrajectory> neighbours(1);
   for (int i = 0; i < 100; ++i) {
     neighbours[0].positions_m.push_back(ref.at(i * 0.5 + 3.0).position_m + Vec3(0, 0, 15.0));
   }
   neighbours[0].step_s = 0.5;
+  neighbours[0].stamp_s = -0.5;  // the first position at t = 0
   const Plateau plateau;
   const TrackerEnvironment env{threats, neighbours, &plateau};
   UavTracker tracker(UavTrackerOptions{}, world::SafetyLimits{});

@@ -73,7 +73,7 @@ struct Scenario {
   bool measure_wind = true;  ///< false: the controller is told there is no wind
   unsigned seed = 1;
   std::vector<world::Threat> threats;
-  std::vector<NeighbourPrediction> neighbours;
+  std::vector<messages::PredictedTrajectory> neighbours;
   const world::Terrain* terrain = nullptr;
   bool wrap_heading = true;  ///< the truth reports ψ wrapped to (−π, π]
   State initial = State::Zero();
@@ -162,9 +162,9 @@ Log run(const UavTrackerOptions& options, const ReferenceTrajectory& ref, const 
         log.min_terrain_clearance_m =
             std::min(log.min_terrain_clearance_m, s[vehicle::kZ] - sc.terrain->height(s[0], s[1]));
       }
-      for (const NeighbourPrediction& nb : sc.neighbours) {
-        log.min_separation_m =
-            std::min(log.min_separation_m, (s.head<3>() - nb.position_at(ti)).norm());
+      for (const messages::PredictedTrajectory& nb : sc.neighbours) {
+        log.min_separation_m = std::min(
+            log.min_separation_m, (s.head<3>() - messages::predicted_position(nb, ti)).norm());
       }
     }
     if (sc.wrap_heading) s[vehicle::kPsi] = wrap_angle(s[vehicle::kPsi]);
@@ -370,10 +370,10 @@ TEST(UavTracker, AvoidsMovingThreatAndHeadOnNeighbour) {
   th.radius_m = 20.0;
   th.appear_s = 2.0;
   sc.threats.push_back(th);
-  NeighbourPrediction nb;  // at x = 350 − 10 t on the same line: meets the UAV at t ≈ 17.5 s
-  nb.uav_id = 2;
-  nb.first_time_s = 0.0;
+  messages::PredictedTrajectory nb;  // at x = 350 − 10 t on the line: meets the UAV at t ≈ 17.5 s
+  nb.uav = 2;
   nb.step_s = 1.0;
+  nb.stamp_s = -1.0;  // the first position at t = 0
   for (int i = 0; i <= 60; ++i) nb.positions_m.push_back(Vec3(350.0 - 10.0 * i, 0.0, 100.0));
   sc.neighbours.push_back(nb);
   sc.initial = state_on(ref.at(0.0));

@@ -1,10 +1,11 @@
-#include "swarm/messages.hpp"
+#include "messages/messages.hpp"
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
-namespace ridgeline::swarm {
+namespace ridgeline::messages {
 namespace {
 
 std::optional<std::string> check_uav(const char* field, int id, int num_uavs) {
@@ -14,7 +15,8 @@ std::optional<std::string> check_uav(const char* field, int id, int num_uavs) {
 }
 
 std::optional<std::string> check_stamp(double stamp_s) {
-  if (!std::isfinite(stamp_s) || stamp_s < 0.0) return fmt::format("stamp {} s is invalid", stamp_s);
+  if (!std::isfinite(stamp_s) || stamp_s < 0.0)
+    return fmt::format("stamp {} s is invalid", stamp_s);
   return std::nullopt;
 }
 
@@ -25,7 +27,8 @@ struct Checker {
   std::optional<std::string> operator()(const PredictedTrajectory& m) const {
     if (auto e = check_uav("uav", m.uav, num_uavs)) return e;
     if (auto e = check_stamp(m.stamp_s)) return e;
-    if (!(std::isfinite(m.step_s) && m.step_s > 0.0)) return fmt::format("step {} s is invalid", m.step_s);
+    if (!(std::isfinite(m.step_s) && m.step_s > 0.0))
+      return fmt::format("step {} s is invalid", m.step_s);
     if (m.positions_m.empty() || m.positions_m.size() > max_points)
       return fmt::format("{} positions, expected 1..{}", m.positions_m.size(), max_points);
     for (const Vec3& p : m.positions_m)
@@ -80,4 +83,16 @@ std::optional<std::string> check_message(const Message& message, int num_uavs,
 
 const char* message_type_name(const Message& message) { return std::visit(TypeName{}, message); }
 
-}  // namespace ridgeline::swarm
+Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s) {
+  const std::vector<Vec3>& p = prediction.positions_m;
+  const int n = static_cast<int>(p.size());
+  if (n == 1) return p.front();
+  const double first_time_s = prediction.stamp_s + prediction.step_s;  // k = 1
+  const double f = (t_s - first_time_s) / prediction.step_s;
+  int i = static_cast<int>(std::floor(f));
+  i = std::clamp(i, 0, n - 2);  // outside the samples: the nearest segment, extrapolated
+  const double a = f - i;
+  return p[i] + a * (p[i + 1] - p[i]);
+}
+
+}  // namespace ridgeline::messages
