@@ -687,20 +687,9 @@ MappedDem map_to_frame(const DemRaster& dem, const GeoFrame& frame, const LocalW
   }
   auto col_of = [&](double x) { return (x - in.origin_x_m) / in.cell_x_m; };
   auto row_of = [&](double y) { return (y - in.origin_y_m) / in.cell_y_m; };
-  const int c0 = std::clamp(static_cast<int>(std::floor(col_of(lo.x()))) - 2, 0, in.cols - 1);
-  const int c1 = std::clamp(static_cast<int>(std::ceil(col_of(hi.x()))) + 2, 0, in.cols - 1);
-  const int r0 = std::clamp(static_cast<int>(std::floor(row_of(lo.y()))) - 2, 0, in.rows - 1);
-  const int r1 = std::clamp(static_cast<int>(std::ceil(row_of(hi.y()))) + 2, 0, in.rows - 1);
   MappedDem out;
   world::RasterGrid& cut = out.source;
-  cut.rows = r1 - r0 + 1;
-  cut.cols = c1 - c0 + 1;
-  cut.cell_x_m = in.cell_x_m;
-  cut.cell_y_m = in.cell_y_m;
-  cut.origin_x_m = in.x_of_col(c0);
-  cut.origin_y_m = in.y_of_row(r0);
-  for (int r = r0; r <= r1; ++r)
-    for (int c = c0; c <= c1; ++c) cut.heights_m.push_back(in.at(r, c));
+  cut = world::crop(in, lo.x(), hi.x(), lo.y(), hi.y(), 2);
 
   const Vec2 slope = world::max_axis_slopes(cut);
   out.map_error_m = slope.x() * map_error.x() + slope.y() * map_error.y();

@@ -58,8 +58,6 @@ class MappedRasterTerrain : public Terrain {
 
   const RasterTerrain& source() const { return source_; }
   const CoordinateMap& map() const { return map_; }
-  /// The DEM's own coordinates of a point of the local frame.
-  Vec2 source_coordinates(double x_m, double y_m) const { return map_.at(x_m, y_m); }
 
  private:
   RasterTerrain source_;

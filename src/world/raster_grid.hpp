@@ -11,6 +11,7 @@
 //   axis; its south-west CORNER is therefore (origin_x_m − cell_x_m/2, origin_y_m − cell_y_m/2).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <string>
@@ -70,6 +71,34 @@ inline void validate_raster_grid(const RasterGrid& grid, const std::string& what
                                  std::to_string(i % grid.cols) + " is not finite");
     }
   }
+}
+
+/// The part of `grid` whose cells cover [x_min, x_max] × [y_min, y_max] (in the grid's own
+/// coordinates), plus `pad_cells` on every side, cut to the grid. Never empty: a rectangle
+/// beyond the grid keeps its border cells.
+inline RasterGrid crop(const RasterGrid& grid, double x_min, double x_max, double y_min,
+                       double y_max, int pad_cells) {
+  // Continuous indices are clamped as doubles first: a rectangle far off must not overflow.
+  const auto index = [](double v, int n) {
+    return static_cast<int>(std::clamp(std::isfinite(v) ? v : 0.0, 0.0, n - 1.0));
+  };
+  const int c0 =
+      index(std::floor((x_min - grid.origin_x_m) / grid.cell_x_m) - pad_cells, grid.cols);
+  const int c1 = index(std::ceil((x_max - grid.origin_x_m) / grid.cell_x_m) + pad_cells, grid.cols);
+  const int r0 =
+      index(std::floor((y_min - grid.origin_y_m) / grid.cell_y_m) - pad_cells, grid.rows);
+  const int r1 = index(std::ceil((y_max - grid.origin_y_m) / grid.cell_y_m) + pad_cells, grid.rows);
+  RasterGrid cut;
+  cut.rows = std::max(1, r1 - r0 + 1);
+  cut.cols = std::max(1, c1 - c0 + 1);
+  cut.cell_x_m = grid.cell_x_m;
+  cut.cell_y_m = grid.cell_y_m;
+  cut.origin_x_m = grid.x_of_col(c0);
+  cut.origin_y_m = grid.y_of_row(r0);
+  cut.heights_m.reserve(static_cast<std::size_t>(cut.rows) * static_cast<std::size_t>(cut.cols));
+  for (int r = r0; r < r0 + cut.rows; ++r)
+    for (int c = c0; c < c0 + cut.cols; ++c) cut.heights_m.push_back(grid.at(r, c));
+  return cut;
 }
 
 }  // namespace ridgeline::world

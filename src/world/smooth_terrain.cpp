@@ -199,15 +199,16 @@ RasterGrid refined(const RasterGrid& grid, int k) {
 
 SmoothRasterTerrain::SmoothRasterTerrain(const RasterGrid& grid, const CoordinateMap* map,
                                          const PlanarBox& box, double exact_model_error_m)
-    : grid_(at_least_two(grid)),
-      refine_(refinement(grid_)),
-      spline_(refined(grid_, refine_)),
+    : SmoothRasterTerrain(at_least_two(grid), map, box, exact_model_error_m, 0) {}
+
+SmoothRasterTerrain::SmoothRasterTerrain(const RasterGrid& g, const CoordinateMap* map,
+                                         const PlanarBox& box, double exact_model_error_m, int)
+    : spline_(refined(g, refinement(g))),
       mapped_(map != nullptr),
       exact_model_error_m_(exact_model_error_m) {
   if (map != nullptr) map_ = *map;
-  const RasterGrid& g = grid_;
   const RasterTerrain raster(g);
-  const int k = refine_;
+  const int k = refinement(g);
   const int cell_rows = (g.rows - 1) * k, cell_cols = (g.cols - 1) * k;
   const double hs = g.cell_x_m / k, ht = g.cell_y_m / k;
   // 2. The raster's rise above the spline in every fine cell, at 3 × 3 points plus the bound
@@ -298,24 +299,8 @@ std::shared_ptr<const Terrain> make_smooth_terrain(const Terrain& exact, const P
                                                  exact.model_error_m());
   if (const auto* raster = dynamic_cast<const RasterTerrain*>(&exact)) {
     // Only the part around the box: a whole DEM may be millions of cells.
-    const RasterGrid& g = raster->grid();
-    const int c0 = std::clamp(
-        static_cast<int>(std::floor((box.x_min_m - g.origin_x_m) / g.cell_x_m)) - 3, 0, g.cols - 1);
-    const int c1 = std::clamp(
-        static_cast<int>(std::ceil((box.x_max_m - g.origin_x_m) / g.cell_x_m)) + 3, 0, g.cols - 1);
-    const int r0 = std::clamp(
-        static_cast<int>(std::floor((box.y_min_m - g.origin_y_m) / g.cell_y_m)) - 3, 0, g.rows - 1);
-    const int r1 = std::clamp(
-        static_cast<int>(std::ceil((box.y_max_m - g.origin_y_m) / g.cell_y_m)) + 3, 0, g.rows - 1);
-    RasterGrid cut;
-    cut.rows = r1 - r0 + 1;
-    cut.cols = c1 - c0 + 1;
-    cut.cell_x_m = g.cell_x_m;
-    cut.cell_y_m = g.cell_y_m;
-    cut.origin_x_m = g.x_of_col(c0);
-    cut.origin_y_m = g.y_of_row(r0);
-    for (int r = r0; r <= r1; ++r)
-      for (int c = c0; c <= c1; ++c) cut.heights_m.push_back(g.at(r, c));
+    const RasterGrid cut =
+        crop(raster->grid(), box.x_min_m, box.x_max_m, box.y_min_m, box.y_max_m, 3);
     return std::make_shared<SmoothRasterTerrain>(cut, nullptr, box, exact.model_error_m());
   }
   return nullptr;

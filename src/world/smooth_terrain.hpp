@@ -88,8 +88,10 @@ class SmoothRasterTerrain : public Terrain {
  private:
   Vec2 source(double x_m, double y_m, Eigen::Matrix2d* jacobian) const;
 
-  RasterGrid grid_;  ///< the raster, with a single row or column doubled
-  int refine_ = 1;   ///< fine cells per raster cell and axis
+  /// The construction on `grid` with a single row or column already doubled.
+  SmoothRasterTerrain(const RasterGrid& grid, const CoordinateMap* map, const PlanarBox& box,
+                      double exact_model_error_m, int);
+
   BicubicSpline spline_;
   bool mapped_ = false;
   CoordinateMap map_;
