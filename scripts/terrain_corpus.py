@@ -20,10 +20,16 @@ import json
 import math
 import os
 import random
+import shutil
 import subprocess
 import sys
 
 H_SAFE = 30.0
+
+
+def fail(message):
+    print(f'error: {message}', file=sys.stderr)
+    sys.exit(2)
 
 
 def sh(*args, **kw):
@@ -149,6 +155,17 @@ def main():
     rl = os.path.abspath(a.ridgeline)
     dem = os.path.abspath(a.dem)
     out = os.path.abspath(a.out)
+    # Checked before anything is written.
+    if not os.path.isfile(dem):
+        fail(f'--dem: {a.dem}: no such file')
+    if not os.access(rl, os.X_OK):
+        fail(f'--ridgeline: {a.ridgeline}: not an executable (build it first)')
+    for tool in ('gdalwarp', 'gdal_translate', 'gdaltransform', 'gdalinfo'):
+        if shutil.which(tool) is None:
+            fail(f'{tool} not found (Debian package gdal-bin)')
+    probe = subprocess.run(['gdalinfo', dem], capture_output=True, text=True)
+    if probe.returncode != 0:
+        fail(f'--dem: {a.dem}: GDAL cannot read it: {probe.stderr.strip()}')
     os.makedirs(out, exist_ok=True)
     os.chdir(out)
 
@@ -245,4 +262,7 @@ def main():
 
 
 if __name__ == '__main__':
-    main()
+    try:
+        main()
+    except subprocess.CalledProcessError as e:
+        fail(f"{' '.join(e.cmd[:2])} failed (exit {e.returncode}): {e.stderr.strip()}")
