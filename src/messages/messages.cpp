@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace ridgeline::messages {
 namespace {
@@ -52,18 +53,7 @@ struct Checker {
     return std::nullopt;
   }
   std::optional<std::string> operator()(const ReferencePlan& m) const {
-    if (auto e = check_uav("uav", m.uav, num_uavs)) return e;
-    if (auto e = check_stamp(m.stamp_s)) return e;
-    if (m.waypoints_m.size() != m.times_s.size() || m.waypoints_m.size() < 2)
-      return fmt::format("{} waypoints and {} times: need two or more of each, equally many",
-                         m.waypoints_m.size(), m.times_s.size());
-    for (std::size_t k = 0; k < m.waypoints_m.size(); ++k) {
-      if (!m.waypoints_m[k].allFinite() || !std::isfinite(m.times_s[k]))
-        return fmt::format("waypoint {} is not finite", k);
-      if (k > 0 && !(m.times_s[k] > m.times_s[k - 1]))
-        return fmt::format("times are not increasing at waypoint {}", k);
-    }
-    return std::nullopt;
+    return check_plan(m, num_uavs, std::numeric_limits<int>::max());
   }
 };
 
@@ -75,6 +65,29 @@ struct TypeName {
 };
 
 }  // namespace
+
+std::optional<std::string> check_plan(const ReferencePlan& p, int num_uavs, int num_targets,
+                                      std::size_t max_samples) {
+  if (auto e = check_uav("uav", p.uav, num_uavs)) return e;
+  if (p.version < 0) return fmt::format("version {} is negative", p.version);
+  if (auto e = check_stamp(p.stamp_s)) return e;
+  if (p.times_s.size() < 2 || p.times_s.size() > max_samples || p.points.size() != p.times_s.size())
+    return fmt::format("{} times and {} points: need 2..{} of each, equally many", p.times_s.size(),
+                       p.points.size(), max_samples);
+  for (std::size_t k = 0; k < p.times_s.size(); ++k) {
+    const ReferencePoint& q = p.points[k];
+    if (!(std::isfinite(p.times_s[k]) && q.position_m.allFinite() && std::isfinite(q.heading_rad) &&
+          std::isfinite(q.speed_m_s) && std::isfinite(q.turn_rate_rad_s) &&
+          std::isfinite(q.climb_rate_m_s)))
+      return fmt::format("sample {} is not finite", k);
+    if (k > 0 && !(p.times_s[k] > p.times_s[k - 1]))
+      return fmt::format("times are not increasing at sample {}", k);
+  }
+  for (const int id : p.target_ids)
+    if (id < 0 || id >= num_targets)
+      return fmt::format("target {} is not a target of the scenario (0..{})", id, num_targets - 1);
+  return std::nullopt;
+}
 
 std::optional<std::string> check_message(const Message& message, int num_uavs,
                                          std::size_t max_points) {

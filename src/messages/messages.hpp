@@ -1,8 +1,9 @@
-// The messages UAVs and the ground station exchange (DESIGN §1): their one C++ definition,
-// used by the in-process transport and the agents (swarm/), the DDS transport's conversions
-// (transport_dds/) and the tracker (mpc/, which reads neighbours' PredictedTrajectory as they
-// arrive). Agents never reach into each other's memory: everything they learn about one
-// another arrives as one of these, through a Transport, so every field is a plain value.
+// The messages UAVs and the ground station exchange (DESIGN §1): their one definition, used by
+// the in-process transport and the agents (swarm/), the tracker (mpc/, which reads neighbours'
+// PredictedTrajectory as they arrive) and the DDS transport, whose IDL and conversions are
+// generated from the RIDGELINE_WIRE_FIELDS lists below (wire_fields.hpp). Agents never reach
+// into each other's memory: everything they learn about one another arrives as one of these,
+// through a Transport, so every field is a plain value. Units: SI (m, s, rad), positions ENU.
 #pragma once
 
 #include <optional>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "messages/wire_fields.hpp"
 #include "vehicle/vehicle_model.hpp"
 
 namespace ridgeline::messages {
@@ -22,6 +24,7 @@ struct PredictedTrajectory {
   double step_s = 0.1;  ///< > 0
   std::vector<Vec3> positions_m;
 };
+RIDGELINE_WIRE_FIELDS(PredictedTrajectory, "PredictedTrajectory", uav, stamp_s, step_s, positions_m)
 
 /// The predicted position at time t (needs ≥ 1 position): linear between the samples, the
 /// nearest segment extended outside them.
@@ -37,21 +40,49 @@ struct ThreatReport {
   Vec3 velocity_m_s = Vec3::Zero();
   double radius_m = 0.0;
 };
+RIDGELINE_WIRE_FIELDS(ThreatReport, "ThreatReport", reporter, threat_id, stamp_s, centre_m,
+                      velocity_m_s, radius_m)
 
 /// A UAV's measured state.
 struct StateReport {
   int uav = -1;
   double stamp_s = 0.0;
-  vehicle::State state = vehicle::State::Zero();
+  vehicle::State state = vehicle::State::Zero();  ///< s = [x, y, z, ψ, v, ω, w] (eq. 1)
 };
+RIDGELINE_WIRE_FIELDS(StateReport, "State", uav, stamp_s, state)
 
-/// The ground station's reference for one UAV: waypoints passed at the given times.
+/// One sample of a reference r(t): where the UAV should be and how it should be moving.
+struct ReferencePoint {
+  Vec3 position_m = Vec3::Zero();
+  double heading_rad = 0.0;
+  double speed_m_s = 0.0;        ///< horizontal speed
+  double turn_rate_rad_s = 0.0;  ///< ψ̇
+  double climb_rate_m_s = 0.0;   ///< ż
+};
+RIDGELINE_WIRE_FIELDS(ReferencePoint, "ReferencePoint", position_m, heading_rad, speed_m_s,
+                      turn_rate_rad_s, climb_rate_m_s)
+
+/// The ground station's reference for one UAV: the time-parametrized reference r_i(t) itself
+/// (so an agent tracks exactly what was planned) and its targets in visiting order. A re-plan
+/// (re-allocation after a UAV is lost) is a newer version.
 struct ReferencePlan {
   int uav = -1;
+  int version = 0;  ///< grows with every re-plan
   double stamp_s = 0.0;
-  std::vector<Vec3> waypoints_m;
-  std::vector<double> times_s;
+  std::vector<double> times_s;         ///< strictly increasing, ≥ 2
+  std::vector<ReferencePoint> points;  ///< one per time
+  std::vector<int> target_ids;         ///< indices into the scenario's targets
 };
+RIDGELINE_WIRE_FIELDS(ReferencePlan, "ReferencePlan", uav, version, stamp_s, times_s, points,
+                      target_ids)
+
+/// The most samples a received plan may hold (a 600 s plan at 20 ms is 30 000).
+inline constexpr std::size_t kMaxPlanSamples = 200000;
+
+/// The reason a plan is rejected (ids, sizes, finite values, increasing times, target ids in
+/// [0, num_targets)), or nothing.
+std::optional<std::string> check_plan(const ReferencePlan& plan, int num_uavs, int num_targets,
+                                      std::size_t max_samples = kMaxPlanSamples);
 
 using Message = std::variant<PredictedTrajectory, ThreatReport, StateReport, ReferencePlan>;
 
@@ -63,9 +94,10 @@ struct Envelope {
   Message message;
 };
 
-/// Checks a received message before anyone acts on it: finite numbers, sizes within bounds,
-/// ids within [0, num_uavs), positive radius and step, times consistent. Returns the reason
-/// a message is rejected, or nothing when it is acceptable.
+/// Checks a received message before anyone acts on it: finite numbers, sizes within bounds
+/// (`max_points` predicted positions), ids within [0, num_uavs), positive radius and step,
+/// times consistent (a plan: check_plan with any non-negative target id). Returns the reason a
+/// message is rejected, or nothing when it is acceptable.
 std::optional<std::string> check_message(const Message& message, int num_uavs,
                                          std::size_t max_points = 1000);
 

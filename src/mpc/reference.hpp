@@ -11,16 +11,12 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "messages/messages.hpp"
 
 namespace ridgeline::mpc {
 
-struct ReferencePoint {
-  Vec3 position_m = Vec3::Zero();
-  double heading_rad = 0.0;
-  double speed_m_s = 0.0;        ///< horizontal speed
-  double turn_rate_rad_s = 0.0;  ///< ψ̇
-  double climb_rate_m_s = 0.0;   ///< ż
-};
+/// A sample of r(t); defined with the messages, since the ground station sends it (ReferencePlan).
+using ReferencePoint = messages::ReferencePoint;
 
 /// Interface: r(t). Implementations are immutable and thread-safe.
 class ReferenceTrajectory {

@@ -23,7 +23,7 @@ double seconds_since(Clock::time_point start) {
 }
 
 std::unique_ptr<swarm::Agent> make_agent(const mission::Scenario& scenario, int id,
-                                         const transport_dds::PlanMessage& plan,
+                                         const messages::ReferencePlan& plan,
                                          std::shared_ptr<const world::Terrain> terrain) {
   planning::UavPlan up;
   up.name = scenario.uavs[static_cast<std::size_t>(id)].name;
@@ -62,7 +62,7 @@ AgentNodeResult run_agent_node(const mission::Scenario& scenario,
   AgentNodeResult result;
 
   // 1. The plan.
-  std::vector<transport_dds::PlanMessage> received;
+  std::vector<messages::ReferencePlan> received;
   std::vector<transport_dds::ClockTick> clocks;
   const auto wait_start = Clock::now();
   while (received.empty()) {
@@ -81,7 +81,7 @@ AgentNodeResult run_agent_node(const mission::Scenario& scenario,
                                            id, options.plan_timeout_s));
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  transport_dds::PlanMessage plan = received.back();
+  messages::ReferencePlan plan = received.back();
   std::unique_ptr<swarm::Agent> agent = make_agent(scenario, id, plan, terrain);
   int inspected_before = 0;  // targets inspected under earlier plan versions
   result.plan_version = plan.version;
@@ -179,7 +179,7 @@ AgentNodeResult run_agent_node(const mission::Scenario& scenario,
 
     received.clear();
     plans.take(received, id);
-    for (const transport_dds::PlanMessage& p : received) {
+    for (const messages::ReferencePlan& p : received) {
       if (p.version <= plan.version) continue;
       inspected_before += agent->targets_inspected();
       plan = p;

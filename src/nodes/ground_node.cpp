@@ -22,9 +22,9 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-transport_dds::PlanMessage hold_plan(int uav, const Vec3& position_m, double heading_rad,
+messages::ReferencePlan hold_plan(int uav, const Vec3& position_m, double heading_rad,
                                      double t_s, int version) {
-  transport_dds::PlanMessage p;
+  messages::ReferencePlan p;
   p.uav = uav;
   p.version = version;
   p.stamp_s = std::max(0.0, t_s);
@@ -36,9 +36,9 @@ transport_dds::PlanMessage hold_plan(int uav, const Vec3& position_m, double hea
   return p;
 }
 
-transport_dds::PlanMessage plan_message(int uav, const planning::UavPlan& up, double shift_s,
+messages::ReferencePlan plan_message(int uav, const planning::UavPlan& up, double shift_s,
                                         int version, double stamp_s) {
-  transport_dds::PlanMessage p;
+  messages::ReferencePlan p;
   p.uav = uav;
   p.version = version;
   p.stamp_s = stamp_s;
@@ -68,12 +68,12 @@ GroundNodeResult run_ground_node(const mission::Scenario& scenario,
   GroundNodeResult result;
 
   // Version 0: the global plan.
-  std::vector<transport_dds::PlanMessage> current(static_cast<std::size_t>(n));
+  std::vector<messages::ReferencePlan> current(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     const mission::UavSpec& u = scenario.uavs[static_cast<std::size_t>(i)];
     const auto it = std::find_if(plan.uavs.begin(), plan.uavs.end(),
                                  [&](const planning::UavPlan& up) { return up.name == u.name; });
-    transport_dds::PlanMessage p;
+    messages::ReferencePlan p;
     if (it == plan.uavs.end() || !it->timing.reference) {
       p = hold_plan(i, u.start_position_m, u.start_heading_rad, 0.0, 0);
     } else {
@@ -154,7 +154,7 @@ GroundNodeResult run_ground_node(const mission::Scenario& scenario,
     const auto plan_start = Clock::now();
     std::vector<int> open;
     for (int i = 0; i < n; ++i) {
-      const transport_dds::PlanMessage& p = current[static_cast<std::size_t>(i)];
+      const messages::ReferencePlan& p = current[static_cast<std::size_t>(i)];
       int done_in_plan = 0;
       if (has_answer[static_cast<std::size_t>(i)]) {
         const transport_dds::CommandReport& a = last_answer[static_cast<std::size_t>(i)];
@@ -215,7 +215,7 @@ GroundNodeResult run_ground_node(const mission::Scenario& scenario,
       const auto it = std::find_if(replan.uavs.begin(), replan.uavs.end(),
                                    [&](const planning::UavPlan& up) { return up.name == name; });
       const int version = current[static_cast<std::size_t>(i)].version + 1;
-      transport_dds::PlanMessage p;
+      messages::ReferencePlan p;
       std::vector<std::string> names;
       if (it == replan.uavs.end() || !it->timing.reference) {
         const transport_dds::Measurement& m = last_measurement[static_cast<std::size_t>(i)];

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "messages/wire_fields.hpp"
 #include "mpc/uav_tracker.hpp"
 #include "swarm/messages.hpp"
 #include "vehicle/vehicle_model.hpp"
@@ -31,6 +32,8 @@ struct ThreatObservation {
   Vec3 velocity_m_s = Vec3::Zero();
   double radius_m = 0.0;
 };
+RIDGELINE_WIRE_FIELDS(ThreatObservation, "SensedThreat", threat_id, centre_m, velocity_m_s,
+                      radius_m)
 
 enum class AgentMode { kTracking, kFallback, kFinished };
 const char* to_string(AgentMode mode);
@@ -49,6 +52,10 @@ struct AgentCounters {
   std::uint64_t qp_failures = 0;
   std::uint64_t threat_reports_sent = 0;
 };
+RIDGELINE_WIRE_FIELDS(AgentCounters, "AgentCounters", messages_received, messages_rejected,
+                      stale_neighbour_steps, replans, neighbour_conflicts, replan_failures,
+                      optimizer_replans, optimizer_fallbacks, rejoins, fallback_steps, qp_failures,
+                      threat_reports_sent)
 
 struct AgentStep {
   vehicle::Input command = vehicle::Input::Zero();

@@ -2,16 +2,7 @@
 // Only src/transport_dds knows DDS: this header exposes no DDS type, so the layers above
 // (processes, apps) never include dds/dds.h.
 //
-// QoS of the topics (issue 7; the why):
-//   predicted_trajectory  best effort, keep last 1 per UAV: a prediction is superseded 10–20 ms
-//                         later; retransmitting an old one would only add latency.
-//   state                 best effort, keep last 1 per UAV (same reason).
-//   threat_report         reliable, keep last 16: a threat reported once must reach everyone
-//                         (reports are repeated every second, but the first one matters most).
-//   reference_plan        reliable, transient local, keep last 1 per UAV: the plan must arrive,
-//                         also at an agent that starts after it was published.
-//   clock, measurement,   reliable, keep last 8 (clock) / 4 per UAV: the world's lock-step
-//   command               protocol waits for them; a lost one would stall a tick.
+// The topics, their QoS and why: topics.hpp (the one place they are written).
 // All readers ignore samples written by their own participant. Readers and writers are in
 // DdsOptions::partition.
 //

@@ -6,18 +6,14 @@
 #include <cstdint>
 #include <string>
 
+#include "transport_dds/topics.hpp"
+
 namespace ridgeline::transport_dds {
 
 /// Returns `rc` when it is a valid handle or success; throws std::runtime_error naming `what`
 /// and DDS's reason otherwise.
 std::int32_t dds_check(std::int32_t rc, const char* what);
 
-/// The QoS classes of dds_participant.hpp.
-enum class TopicQos {
-  kLatestBestEffort,  ///< best effort, keep last 1 (per key)
-  kReliable,          ///< reliable, keep last `depth`
-  kReliableLatched,   ///< reliable, transient local, keep last 1 per key
-};
 
 /// A topic of `descriptor`'s type named `name` on `participant`.
 dds_entity_t make_topic(dds_entity_t participant, const dds_topic_descriptor_t* descriptor,

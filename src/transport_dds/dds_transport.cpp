@@ -5,23 +5,19 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
+#include <type_traits>
+#include <utility>
 
 #include "core/error.hpp"
-#include "transport_dds/dds_support.hpp"
-#include "transport_dds/ridgeline_msgs.h"
+#include "transport_dds/wire_types.hpp"
 
 namespace ridgeline::transport_dds {
 namespace {
 
-using V3 = ridgeline_msg_dds__Vector3_;
-V3 to_dds(const Vec3& v) { return V3{v.x(), v.y(), v.z()}; }
-Vec3 from_dds(const V3& v) { return Vec3(v.x, v.y, v.z); }
-
-constexpr const char* kPredictionTopic = "rt/ridgeline/predicted_trajectory";
-constexpr const char* kThreatTopic = "rt/ridgeline/threat_report";
-constexpr const char* kStateTopic = "rt/ridgeline/state";
-constexpr const char* kPlanTopic = "rt/ridgeline/reference_plan";
-constexpr std::uint32_t kMaxPlanSamples = 200000;  // a 600 s plan at 20 ms is 30 000
+// The Transport's message types (the alternatives of messages::Message), as a type list.
+using MessageTypes = std::tuple<messages::PredictedTrajectory*, messages::ThreatReport*,
+                                messages::StateReport*, messages::ReferencePlan*>;
 
 }  // namespace
 
@@ -31,10 +27,20 @@ struct DdsTransport::Impl {
   dds_entity_t threat_writer = 0, threat_reader = 0;
   dds_entity_t state_writer = 0, state_reader = 0;
   dds_entity_t plan_writer = 0, plan_reader = 0;
-  // Scratch buffers the C samples point into while written.
-  std::vector<V3> points;
-  std::vector<ridgeline_msg_dds__ReferenceSample_> samples;
-  std::vector<std::int32_t> ids;
+  WireArena arena;  // what an outgoing sample's sequences point into while it is written
+
+  /// M's writer and reader.
+  template <class M>
+  std::pair<dds_entity_t*, dds_entity_t*> ends() {
+    if constexpr (std::is_same_v<M, messages::PredictedTrajectory>)
+      return {&prediction_writer, &prediction_reader};
+    else if constexpr (std::is_same_v<M, messages::ThreatReport>)
+      return {&threat_writer, &threat_reader};
+    else if constexpr (std::is_same_v<M, messages::StateReport>)
+      return {&state_writer, &state_reader};
+    else
+      return {&plan_writer, &plan_reader};
+  }
 };
 
 DdsTransport::DdsTransport(std::shared_ptr<DdsParticipant> participant,
@@ -60,19 +66,14 @@ DdsTransport::DdsTransport(std::shared_ptr<DdsParticipant> participant,
   d.participant = std::move(participant);
   const dds_entity_t p = d.participant->handle();
   const std::string& part = d.participant->partition();
-  const dds_entity_t prediction =
-      make_topic(p, &ridgeline_msg_dds__PredictedTrajectory__desc, kPredictionTopic);
-  const dds_entity_t threat = make_topic(p, &ridgeline_msg_dds__ThreatReport__desc, kThreatTopic);
-  const dds_entity_t state = make_topic(p, &ridgeline_msg_dds__State__desc, kStateTopic);
-  const dds_entity_t plan = make_topic(p, &ridgeline_msg_dds__ReferencePlan__desc, kPlanTopic);
-  d.prediction_writer = make_writer(p, prediction, TopicQos::kLatestBestEffort, 1, part);
-  d.prediction_reader = make_reader(p, prediction, TopicQos::kLatestBestEffort, 1, part);
-  d.threat_writer = make_writer(p, threat, TopicQos::kReliable, 16, part);
-  d.threat_reader = make_reader(p, threat, TopicQos::kReliable, 16, part);
-  d.state_writer = make_writer(p, state, TopicQos::kLatestBestEffort, 1, part);
-  d.state_reader = make_reader(p, state, TopicQos::kLatestBestEffort, 1, part);
-  d.plan_writer = make_writer(p, plan, TopicQos::kReliableLatched, 1, part);
-  d.plan_reader = make_reader(p, plan, TopicQos::kReliableLatched, 1, part);
+  // Every message type of the Transport: its topic, writer and reader (topics.hpp).
+  auto open = [&]<class M>(M*) {
+    const dds_entity_t topic = make_topic_of<M>(p);
+    auto [writer, reader] = d.ends<M>();
+    *writer = make_writer_of<M>(p, topic, part);
+    *reader = make_reader_of<M>(p, topic, part);
+  };
+  std::apply([&](auto*... types) { (open(types), ...); }, MessageTypes{});
 }
 
 DdsTransport::~DdsTransport() {
@@ -95,51 +96,11 @@ void DdsTransport::publish(int sender, double /*now_s*/, const swarm::Message& m
                                            options_.participant_id, sender));
   Impl& d = *impl_;
   ++stats_.published;
-  if (const auto* p = std::get_if<swarm::PredictedTrajectory>(&message)) {
-    d.points.clear();
-    for (const Vec3& q : p->positions_m) d.points.push_back(to_dds(q));
-    ridgeline_msg_dds__PredictedTrajectory_ s{};
-    s.uav = p->uav;
-    s.stamp_s = p->stamp_s;
-    s.step_s = p->step_s;
-    s.positions_m._maximum = s.positions_m._length = static_cast<std::uint32_t>(d.points.size());
-    s.positions_m._buffer = d.points.data();
-    s.positions_m._release = false;
-    dds_check(dds_write(d.prediction_writer, &s), "dds_write(predicted_trajectory)");
-  } else if (const auto* r = std::get_if<swarm::ThreatReport>(&message)) {
-    ridgeline_msg_dds__ThreatReport_ s{};
-    s.reporter = r->reporter;
-    s.threat_id = r->threat_id;
-    s.stamp_s = r->stamp_s;
-    s.centre_m = to_dds(r->centre_m);
-    s.velocity_m_s = to_dds(r->velocity_m_s);
-    s.radius_m = r->radius_m;
-    dds_check(dds_write(d.threat_writer, &s), "dds_write(threat_report)");
-  } else if (const auto* st = std::get_if<swarm::StateReport>(&message)) {
-    ridgeline_msg_dds__State_ s{};
-    s.uav = st->uav;
-    s.stamp_s = st->stamp_s;
-    for (int k = 0; k < 7; ++k) s.s[k] = st->state[k];
-    dds_check(dds_write(d.state_writer, &s), "dds_write(state)");
-  } else if (const auto* pl = std::get_if<swarm::ReferencePlan>(&message)) {
-    if (pl->waypoints_m.size() != pl->times_s.size())
-      throw InputError("ReferencePlan", "waypoints and times differ in length");
-    d.samples.clear();
-    for (std::size_t k = 0; k < pl->times_s.size(); ++k) {
-      ridgeline_msg_dds__ReferenceSample_ q{};
-      q.t_s = pl->times_s[k];
-      q.position_m = to_dds(pl->waypoints_m[k]);
-      d.samples.push_back(q);
-    }
-    ridgeline_msg_dds__ReferencePlan_ s{};
-    s.uav = pl->uav;
-    s.stamp_s = pl->stamp_s;
-    s.full_samples = false;
-    s.samples._maximum = s.samples._length = static_cast<std::uint32_t>(d.samples.size());
-    s.samples._buffer = d.samples.data();
-    s.samples._release = false;
-    dds_check(dds_write(d.plan_writer, &s), "dds_write(reference_plan)");
-  }
+  std::visit(
+      [&](const auto& m) {
+        write_message(*d.ends<std::remove_cvref_t<decltype(m)>>().first, m, d.arena);
+      },
+      message);
   ++stats_.sent;
 }
 
@@ -200,55 +161,33 @@ void DdsTransport::poll(double now_s) {
   Impl& d = *impl_;
   const swarm::LinkModel& link = options_.emulated_link;
   const bool emulate = link.latency_s > 0.0 || link.jitter_s > 0.0 || link.drop_rate > 0.0;
-  take_all<ridgeline_msg_dds__PredictedTrajectory_>(d.prediction_reader, [&](const auto& s) {
-    swarm::PredictedTrajectory m;
-    m.uav = s.uav;
-    m.stamp_s = s.stamp_s;
-    m.step_s = s.step_s;
-    // The length is checked before copying: a forged length must not allocate gigabytes.
-    if (s.positions_m._length <= options_.max_points) {
-      m.positions_m.reserve(s.positions_m._length);
-      for (std::uint32_t k = 0; k < s.positions_m._length; ++k)
-        m.positions_m.push_back(from_dds(s.positions_m._buffer[k]));
-    } else {
-      m.positions_m.resize(options_.max_points + 1, Vec3::Zero());
-    }
-    accept(std::move(m), s.uav, s.stamp_s, now_s, emulate);
-  });
-  take_all<ridgeline_msg_dds__ThreatReport_>(d.threat_reader, [&](const auto& s) {
-    swarm::ThreatReport m;
-    m.reporter = s.reporter;
-    m.threat_id = s.threat_id;
-    m.stamp_s = s.stamp_s;
-    m.centre_m = from_dds(s.centre_m);
-    m.velocity_m_s = from_dds(s.velocity_m_s);
-    m.radius_m = s.radius_m;
-    accept(std::move(m), s.reporter, s.stamp_s, now_s, emulate);
-  });
-  take_all<ridgeline_msg_dds__State_>(d.state_reader, [&](const auto& s) {
-    swarm::StateReport m;
-    m.uav = s.uav;
-    m.stamp_s = s.stamp_s;
-    for (int k = 0; k < 7; ++k) m.state[k] = s.s[k];
-    accept(std::move(m), s.uav, s.stamp_s, now_s, emulate);
-  });
-  take_all<ridgeline_msg_dds__ReferencePlan_>(d.plan_reader, [&](const auto& s) {
-    // The plan as waypoints and times (PlanLink reads the full reference samples).
-    swarm::ReferencePlan m;
-    m.uav = s.uav;
-    m.stamp_s = s.stamp_s;
-    const std::uint32_t n = s.samples._length;
-    if (n > kMaxPlanSamples) {
-      ++stats_.rejected;
-      last_rejection_ = fmt::format("ReferencePlan: {} samples, at most {}", n, kMaxPlanSamples);
-      return;
-    }
-    for (std::uint32_t k = 0; k < n; ++k) {
-      m.times_s.push_back(s.samples._buffer[k].t_s);
-      m.waypoints_m.push_back(from_dds(s.samples._buffer[k].position_m));
-    }
-    accept(std::move(m), options_.num_uavs, s.stamp_s, now_s, false);
-  });
+  // A plan's samples are bounded by kMaxPlanSamples, every other sequence by max_points; the
+  // lengths are checked before anything is allocated for them (a forged length must not
+  // allocate gigabytes), the rest by check_message in accept().
+  auto take = [&]<class M>(M*) {
+    const std::uint32_t max_length = static_cast<std::uint32_t>(
+        std::is_same_v<M, messages::ReferencePlan> ? messages::kMaxPlanSamples
+                                                   : options_.max_points);
+    take_messages<M>(
+        *d.ends<M>().second, max_length, [](const auto&) { return false; },
+        [&](M&& m) {
+          // Who sent it and when, as the message says; a plan comes from the ground station.
+          int sender = options_.num_uavs;
+          double sent_s = 0.0;
+          if constexpr (std::is_same_v<M, messages::ThreatReport>)
+            sender = m.reporter;
+          else if constexpr (!std::is_same_v<M, messages::ReferencePlan>)
+            sender = m.uav;
+          sent_s = m.stamp_s;
+          const bool delayed = emulate && !std::is_same_v<M, messages::ReferencePlan>;
+          accept(std::move(m), sender, sent_s, now_s, delayed);
+        },
+        [&](const auto&, const std::string& reason) {
+          ++stats_.rejected;
+          last_rejection_ = fmt::format("{}: {}", messages::WireFields<M>::name, reason);
+        });
+  };
+  std::apply([&](auto*... types) { (take(types), ...); }, MessageTypes{});
 }
 
 }  // namespace ridgeline::transport_dds

@@ -1,9 +1,9 @@
-// The ground station's plans over DDS (topic rt/ridgeline/reference_plan, type
-// ridgeline::msg::dds_::ReferencePlan_; reliable, transient local, keep last 1 per UAV, so an
-// agent that starts late still gets its plan). A PlanMessage carries the time-parametrized
-// reference r_i(t) itself — every sample's position, heading, speed, turn and climb rate — so
-// an agent in its own process tracks exactly what the planner produced, and the UAV's targets
-// in visiting order. A re-plan (re-allocation after a UAV is lost) is a newer version.
+// The ground station's plans over DDS (topic rt/ridgeline/reference_plan, topics.hpp: reliable,
+// transient local, keep last 1 per UAV, so an agent that starts late still gets its plan). A
+// plan carries the time-parametrized reference r_i(t) itself — every sample's position,
+// heading, speed, turn and climb rate — so an agent in its own process tracks exactly what the
+// planner produced, and the UAV's targets in visiting order. A re-plan (re-allocation after a
+// UAV is lost) is a newer version.
 #pragma once
 
 #include <cstdint>
@@ -12,23 +12,10 @@
 #include <string>
 #include <vector>
 
-#include "mpc/reference.hpp"
+#include "messages/messages.hpp"
 #include "transport_dds/dds_participant.hpp"
 
 namespace ridgeline::transport_dds {
-
-struct PlanMessage {
-  int uav = -1;
-  int version = 0;
-  double stamp_s = 0.0;
-  std::vector<double> times_s;              ///< strictly increasing, ≥ 2
-  std::vector<mpc::ReferencePoint> points;  ///< one per time
-  std::vector<int> target_ids;              ///< indices into the scenario's targets
-};
-
-/// The reason a plan is rejected (ids, sizes, finite values, increasing times), or nothing.
-std::optional<std::string> check_plan(const PlanMessage& plan, int num_uavs, int num_targets,
-                                      std::size_t max_samples = 200000);
 
 class PlanLink {
  public:
@@ -40,9 +27,9 @@ class PlanLink {
   PlanLink& operator=(const PlanLink&) = delete;
 
   /// Throws InputError when the plan fails check_plan or this end does not publish.
-  void publish(const PlanMessage& plan);
+  void publish(const messages::ReferencePlan& plan);
   /// Appends the valid plans received (only `uav`'s when uav ≥ 0); rejects are counted.
-  void take(std::vector<PlanMessage>& out, int uav = -1);
+  void take(std::vector<messages::ReferencePlan>& out, int uav = -1);
   int matched_readers() const;
 
   std::uint64_t rejected() const { return rejected_; }

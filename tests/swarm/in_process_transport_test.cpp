@@ -99,9 +99,13 @@ TEST(Messages, MalformedMessagesAreRejectedWithAReason) {
   EXPECT_NE(check_message(r, 2)->find("radius"), std::string::npos);
   ReferencePlan plan;
   plan.uav = 0;
-  plan.waypoints_m = {Vec3::Zero(), Vec3::Ones()};
+  plan.points.resize(2);
   plan.times_s = {1.0, 1.0};
   EXPECT_NE(check_message(plan, 1)->find("not increasing"), std::string::npos);
+  plan.times_s = {1.0, 2.0};
+  EXPECT_FALSE(check_message(plan, 1).has_value());
+  plan.target_ids = {-1};
+  EXPECT_NE(check_message(plan, 1)->find("target -1"), std::string::npos);
   StateReport s;
   s.uav = 0;
   s.stamp_s = -1.0;

@@ -121,17 +121,28 @@ TEST(DdsTransport, ThreatStateAndPlanRoundTrip) {
 
   swarm::ReferencePlan plan;
   plan.uav = 1;
+  plan.version = 3;
   plan.stamp_s = 0.5;
-  plan.waypoints_m = {Vec3(0, 0, 50), Vec3(100, 0, 60), Vec3(200, 50, 70)};
+  plan.points = {{Vec3(0, 0, 50), 0.1, 10.0, 0.0, 1.0},
+                 {Vec3(100, 0, 60), 0.2, 11.0, 0.01, 0.0},
+                 {Vec3(200, 50, 70), 0.3, 12.0, -0.01, -1.0}};
   plan.times_s = {0.0, 10.0, 21.0};
+  plan.target_ids = {2, 0};
   got = send_until_received(ground, 3, a, 2, plan);
   ASSERT_FALSE(got.empty());
   const auto* pp = std::get_if<swarm::ReferencePlan>(&got.back().message);
   ASSERT_NE(pp, nullptr);
   EXPECT_EQ(got.back().sender, 3);  // the ground station
   EXPECT_EQ(pp->uav, 1);
-  EXPECT_EQ(pp->waypoints_m, plan.waypoints_m);
+  EXPECT_EQ(pp->version, 3);
   EXPECT_EQ(pp->times_s, plan.times_s);
+  ASSERT_EQ(pp->points.size(), plan.points.size());
+  for (std::size_t k = 0; k < plan.points.size(); ++k) {
+    EXPECT_EQ(pp->points[k].position_m, plan.points[k].position_m);
+    EXPECT_EQ(pp->points[k].heading_rad, plan.points[k].heading_rad);
+    EXPECT_EQ(pp->points[k].climb_rate_m_s, plan.points[k].climb_rate_m_s);
+  }
+  EXPECT_EQ(pp->target_ids, plan.target_ids);
 }
 
 TEST(DdsTransport, OwnMessagesAreNotDeliveredBack) {
@@ -163,7 +174,7 @@ TEST(DdsTransport, MalformedAndOutOfRangeMessagesAreRejectedAndCounted) {
   bad.push_back(swarm::ThreatReport{0, 5, -3.0, Vec3(0, 0, 0), Vec3(1, 0, 0), 30.0});
   swarm::ReferencePlan backwards;
   backwards.uav = 1;
-  backwards.waypoints_m = {Vec3(0, 0, 50), Vec3(1, 0, 50)};
+  backwards.points.resize(2);
   backwards.times_s = {2.0, 1.0};
   bad.push_back(backwards);
   // Reliable topics deliver all of them; predictions are best effort and keep only the latest
@@ -180,7 +191,9 @@ TEST(DdsTransport, MalformedAndOutOfRangeMessagesAreRejectedAndCounted) {
   huge.positions_m.assign(1001, Vec3(0, 0, 50));  // max_points is 1000
   swarm::PredictedTrajectory nan = huge;
   nan.positions_m.assign(10, Vec3(0, kNaN, 50));
-  for (const swarm::PredictedTrajectory& p : {huge, nan}) {
+  std::string rejection_of_huge;
+  for (const swarm::PredictedTrajectory* q : {&huge, &nan}) {
+    const swarm::PredictedTrajectory& p = *q;
     const std::uint64_t before = b.stats().rejected;
     poll_until(
         [&] {
@@ -190,9 +203,13 @@ TEST(DdsTransport, MalformedAndOutOfRangeMessagesAreRejectedAndCounted) {
         },
         [&] { return b.stats().rejected > before; });
     EXPECT_GT(b.stats().rejected, before);
+    if (&p == &huge) rejection_of_huge = b.last_rejection();
   }
   EXPECT_TRUE(got.empty());
   EXPECT_NE(b.last_rejection().find("PredictedTrajectory"), std::string::npos);
+  // The oversized one was refused by its length, naming the field, before it was copied.
+  EXPECT_EQ(rejection_of_huge.find("PredictedTrajectory: positions_m: 1001 elements"), 0u)
+      << rejection_of_huge;
 }
 
 TEST(DdsTransport, EmulatedLinkDelaysAndDropsAtTheConfiguredRate) {
@@ -247,7 +264,7 @@ TEST(DdsTransport, EmulatedLinkDelaysAndDropsAtTheConfiguredRate) {
 TEST(PlanLink, FullReferenceRoundTripsAndReachesALateJoiner) {
   auto pg = participant();
   PlanLink ground(pg, 3, 5, true);
-  PlanMessage plan;
+  messages::ReferencePlan plan;
   plan.uav = 2;
   plan.version = 1;
   plan.stamp_s = 0.0;
@@ -261,9 +278,9 @@ TEST(PlanLink, FullReferenceRoundTripsAndReachesALateJoiner) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   auto pa = participant();
   PlanLink agent(pa, 3, 5, false);
-  std::vector<PlanMessage> got;
+  std::vector<messages::ReferencePlan> got;
   ASSERT_TRUE(poll_until([&] { agent.take(got, 2); }, [&] { return !got.empty(); }));
-  const PlanMessage& q = got.back();
+  const messages::ReferencePlan& q = got.back();
   EXPECT_EQ(q.uav, 2);
   EXPECT_EQ(q.version, 1);
   EXPECT_EQ(q.times_s, plan.times_s);
@@ -277,7 +294,7 @@ TEST(PlanLink, FullReferenceRoundTripsAndReachesALateJoiner) {
   }
   EXPECT_EQ(q.target_ids, plan.target_ids);
   // Another UAV's reader gets nothing for uav 1.
-  std::vector<PlanMessage> other;
+  std::vector<messages::ReferencePlan> other;
   agent.take(other, 1);
   EXPECT_TRUE(other.empty());
 }
@@ -285,7 +302,7 @@ TEST(PlanLink, FullReferenceRoundTripsAndReachesALateJoiner) {
 TEST(PlanLink, InvalidPlansAreRefusedBeforeSending) {
   auto pg = participant();
   PlanLink ground(pg, 3, 5, true);
-  PlanMessage plan;
+  messages::ReferencePlan plan;
   plan.uav = 0;
   plan.times_s = {0.0, 1.0};
   plan.points.resize(2);
@@ -296,7 +313,7 @@ TEST(PlanLink, InvalidPlansAreRefusedBeforeSending) {
   EXPECT_THROW(ground.publish(plan), InputError);
   plan.times_s = {0.0, 1.0};
   plan.points[1].speed_m_s = kNaN;
-  EXPECT_NE(check_plan(plan, 3, 5)->find("not finite"), std::string::npos);
+  EXPECT_NE(messages::check_plan(plan, 3, 5)->find("not finite"), std::string::npos);
 }
 
 TEST(SimLink, ClockMeasurementAndCommandRoundTrip) {
@@ -380,10 +397,15 @@ TEST(SimLink, ClockMeasurementAndCommandRoundTrip) {
   bad.command[1] = kNaN;
   CommandReport bad2 = c;
   bad2.targets_inspected = 3;
+  CommandReport bad3 = c;
+  bad3.mode = static_cast<swarm::AgentMode>(7);
   agent.publish(bad);
   agent.publish(bad2);
-  poll_until([&] { world.take(commands); }, [&] { return world.stats().rejected >= before + 2; });
-  EXPECT_EQ(world.stats().rejected, before + 2) << world.stats().last_rejection;
+  agent.publish(bad3);
+  poll_until([&] { world.take(commands); }, [&] { return world.stats().rejected >= before + 3; });
+  EXPECT_EQ(world.stats().rejected, before + 3) << world.stats().last_rejection;
+  EXPECT_NE(world.stats().last_rejection.find("Command: mode 7"), std::string::npos)
+      << world.stats().last_rejection;
   EXPECT_EQ(commands.size(), 1u);
 }
 
