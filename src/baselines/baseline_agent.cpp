@@ -154,7 +154,7 @@ void BaselineAgent::update_mission(double t_s, const Vec3& position_m) {
     ++next_target_;
   }
   if (next_target_ == n) {
-    if (n > 0 || t_s >= reference_->end_time_s()) finished_ = true;
+    if ((n > 0 && !options_.fly_to_end) || t_s >= reference_->end_time_s()) finished_ = true;
     return;
   }
   if (t_s > reference_->end_time_s() + options_.missed_after_s) {

@@ -26,6 +26,8 @@ struct BaselineAgentOptions {
   int num_uavs = 1;
   vehicle::VehicleParams vehicle;
   std::vector<swarm::AgentTarget> targets;  ///< this UAV's, in visiting order
+  /// The plan ends at the UAV's end position: finished only once the reference is flown.
+  bool fly_to_end = false;
   double control_period_s = 0.02;
   double missed_after_s = 30.0;
   double threat_forget_s = 10.0;

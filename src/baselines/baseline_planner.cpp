@@ -308,12 +308,8 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
 
   // 1. The same allocation as the proposed planner.
   auto stage = Clock::now();
-  std::vector<Vec3> starts;
-  for (const PlannerUav& u : problem.uavs) starts.push_back(u.start_m);
-  const AllocationCosts costs = estimate_allocation_costs(*problem.terrain, starts, problem.targets,
-                                                          problem.limits, options.cost_estimate);
-  plan.allocation = allocate_targets({starts, problem.targets, costs.start_cost, costs.target_cost},
-                                     options.allocation);
+  plan.allocation =
+      allocate_targets(make_allocation_problem(problem, options.cost_estimate), options.allocation);
   plan.allocation_time_s = seconds_since(stage);
   if (plan.allocation.status == AllocationStatus::kInvalidInput)
     return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, plan.allocation.message);
@@ -334,13 +330,16 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
       UavPlan uav_plan;
       uav_plan.name = u.name;
       uav_plan.targets = plan.allocation.routes[i];
-      if (uav_plan.targets.empty()) continue;
+      if (uav_plan.targets.empty() && !u.end_m) continue;
+      // The route's stops: its targets, then its end (return home, a landing point).
+      std::vector<AllocationTarget> stops;
+      for (const int t : uav_plan.targets) stops.push_back(problem.targets[static_cast<std::size_t>(t)]);
+      if (u.end_m) stops.push_back({u.name + " end", *u.end_m, 0});
       const LegCost cost(options, u.vehicle.cruise_speed_m_s);
       std::vector<Vec2> polyline{u.start_m.head<2>()};
       std::vector<double> fixed_z{u.start_m.z()};  // per vertex: pinned altitude, or NaN
       Vec3 from = u.start_m;
-      for (const int t : uav_plan.targets) {
-        const AllocationTarget& target = problem.targets[static_cast<std::size_t>(t)];
+      for (const AllocationTarget& target : stops) {
         const int a = grid.cell_of(from.x(), from.y());
         const int b = grid.cell_of(target.position_m.x(), target.position_m.y());
         int expanded = 0;

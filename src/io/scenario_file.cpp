@@ -191,6 +191,13 @@ mission::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& 
   uav.start_speed_m_s = start.get_double("speed_m_s", uav.vehicle.cruise_speed_m_s);
   start.finish();
   uav.sensor_range_m = m.get_double("sensor_range_m", uav.sensor_range_m);
+  if (auto targets = m.optional("targets"))
+    for (const YamlValue& name : targets->as_list()) uav.assigned_targets.push_back(name.as_string());
+  if (auto end = m.optional("end")) {
+    YamlMap e = end->as_map();
+    uav.end_position_m = parse_position(e, "position_m", "position_geo", frame);
+    e.finish();
+  }
   m.finish();
   return uav;
 }

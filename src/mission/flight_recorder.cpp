@@ -109,6 +109,11 @@ MissionResult FlightRecorder::finish(double t, const std::vector<UavOutcome>& ou
     um.missed_targets = a.missed_targets;
     um.finished = a.finished;
     um.finish_time_s = a.finish_time_s;
+    const std::optional<Vec3>& end = scenario_.uavs[i].end_position_m;
+    if (end) {
+      um.end_distance_m = (u.last_position - *end).norm();
+      um.end_reached = um.end_distance_m <= InspectionTarget{}.inspection_radius_m;
+    }
     const swarm::AgentCounters& c = a.counters;
     um.replans = static_cast<long long>(c.replans);
     um.optimizer_replans = static_cast<long long>(c.optimizer_replans);
@@ -121,7 +126,8 @@ MissionResult FlightRecorder::finish(double t, const std::vector<UavOutcome>& ou
     um.messages_rejected = static_cast<long long>(c.messages_rejected);
     um.max_slack_m = u.max_slack_m;
     m.mission_complete =
-        m.mission_complete && um.finished && um.targets_inspected == um.targets_assigned;
+        m.mission_complete && um.finished && um.targets_inspected == um.targets_assigned &&
+        (!end || um.end_reached);
     m.uavs.push_back(std::move(um));
   }
   safety_.write(m);

@@ -39,6 +39,8 @@ nlohmann::json to_json(const MissionMetrics& m) {
                     {"missed_targets", u.missed_targets},
                     {"finished", u.finished},
                     {"finish_time_s", u.finish_time_s},
+                    {"end_distance_m", finite_or_null(u.end_distance_m)},
+                    {"end_reached", u.end_reached},
                     {"replans", u.replans},
                     {"optimizer_replans", u.optimizer_replans},
                     {"neighbour_conflicts", u.neighbour_conflicts},

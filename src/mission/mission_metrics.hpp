@@ -5,6 +5,7 @@
 
 #include <map>
 #include <nlohmann/json.hpp>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,11 @@ struct UavMetrics {
   std::vector<std::string> missed_targets;
   bool finished = false;
   double finish_time_s = -1.0;
+  /// With an end position (uavs[i].end): the truth's final distance to it, and whether that is
+  /// within the inspection radius a target would need (a mission with ends is complete only
+  /// when every UAV is there). NaN / false without an end (JSON null).
+  double end_distance_m = std::numeric_limits<double>::quiet_NaN();
+  bool end_reached = false;
   // The agent's own counters.
   long long replans = 0;
   long long optimizer_replans = 0;    ///< of replans, made by the local optimizer

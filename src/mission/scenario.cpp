@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 
 namespace ridgeline::mission {
@@ -152,6 +154,32 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
     check_placement(c, path + ".position_m", t.position_m, s, terrain);
     if (t.priority < 0) c.fail(path + ".priority", fmt::format("must be >= 0, got {}", t.priority));
     c.positive(path + ".inspection_radius_m", t.inspection_radius_m);
+  }
+
+  // Per-UAV missions: an assigned target must exist and belong to one UAV; an end is placed as
+  // a target is (inside the area and the band, h_safe above the terrain).
+  std::map<std::string, std::size_t> owner;  // target name -> the UAV it is given to
+  for (std::size_t i = 0; i < s.uavs.size(); ++i) {
+    const UavSpec& u = s.uavs[i];
+    for (std::size_t k = 0; k < u.assigned_targets.size(); ++k) {
+      const std::string& name = u.assigned_targets[k];
+      const std::string field = fmt::format("uavs[{}].targets[{}]", i, k);
+      const bool known = std::any_of(s.targets.begin(), s.targets.end(),
+                                     [&](const InspectionTarget& t) { return t.name == name; });
+      if (!known) {
+        c.fail(field, fmt::format("no target is named '{}'", name));
+        continue;
+      }
+      const auto [it, inserted] = owner.emplace(name, i);
+      if (!inserted) {
+        c.fail(field, it->second == i
+                          ? fmt::format("target '{}' is listed twice", name)
+                          : fmt::format("target '{}' is already given to uavs[{}] ('{}')", name,
+                                        it->second, s.uavs[it->second].name));
+      }
+    }
+    if (u.end_position_m)
+      check_placement(c, fmt::format("uavs[{}].end.position_m", i), *u.end_position_m, s, terrain);
   }
 
   for (std::size_t i = 0; i < s.threats.size(); ++i)

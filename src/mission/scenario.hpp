@@ -74,6 +74,13 @@ struct UavSpec {
   double start_heading_rad = 0.0;
   double start_speed_m_s = 10.0;
   double sensor_range_m = 300.0;  ///< threats whose surface is this close are sensed
+  /// Targets (by name) only this UAV visits: allocation keeps them on its route and adds the
+  /// others where they fit best (YAML `uavs[i].targets: [names]`). A name given to two UAVs
+  /// is an error.
+  std::vector<std::string> assigned_targets = {};
+  /// Where the UAV flies after its last target (return home, a landing point), held there
+  /// (YAML `uavs[i].end: {position_m | position_geo}`); none: it holds after its last target.
+  std::optional<Vec3> end_position_m = std::nullopt;
 };
 
 struct InspectionTarget {
@@ -151,7 +158,8 @@ struct Scenario {
 
 /// Checks a scenario's values and their consistency with the terrain: ranges, min below
 /// max, finite numbers, unique names, starts and targets inside the area, within the altitude
-/// band and above the terrain clearance, starts separated by d_safe. Returns every problem
+/// band and above the terrain clearance, starts separated by d_safe, assigned targets named in
+/// `targets` and given to one UAV only, ends placed as targets are. Returns every problem
 /// found, each naming its field path; an empty list means the scenario is valid.
 std::vector<InputError> validate(const Scenario& scenario, const world::Terrain& terrain);
 

@@ -11,10 +11,20 @@ planning::GlobalPlanningProblem make_planning_problem(
   problem.area.min_m = Vec2(scenario.area.x_min_m, scenario.area.y_min_m);
   problem.area.max_m = Vec2(scenario.area.x_max_m, scenario.area.y_max_m);
   problem.limits = scenario.safety;
-  for (const UavSpec& u : scenario.uavs)
-    problem.uavs.push_back({u.name, u.start_position_m, u.start_heading_rad, u.vehicle});
   for (const InspectionTarget& t : scenario.targets)
     problem.targets.push_back({t.name, t.position_m, t.priority});
+  for (const UavSpec& u : scenario.uavs) {
+    planning::PlannerUav pu{u.name, u.start_position_m, u.start_heading_rad, u.vehicle, {},
+                            u.end_position_m};
+    for (const std::string& name : u.assigned_targets) {
+      // validate() has checked that the name exists; an unknown one is skipped, never guessed.
+      const auto it = std::find_if(scenario.targets.begin(), scenario.targets.end(),
+                                   [&](const InspectionTarget& t) { return t.name == name; });
+      if (it != scenario.targets.end())
+        pu.required_targets.push_back(static_cast<int>(it - scenario.targets.begin()));
+    }
+    problem.uavs.push_back(std::move(pu));
+  }
   return problem;
 }
 
@@ -74,6 +84,7 @@ swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
     const InspectionTarget& t = scenario.targets.at(static_cast<std::size_t>(k));
     o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
   }
+  o.fly_to_end = uav.end_position_m.has_value();
   o.broadcast_period_s = 1.0 / scenario.simulation.message_rate_hz;
   o.detour.max_climb_rate_m_s = uav.vehicle.max_climb_rate_m_s;
   o.optimizer_replan = scenario.planner.optimizer_replan;

@@ -179,7 +179,9 @@ GroundNodeResult run_ground_node(const mission::Scenario& scenario,
       r.status = "nothing to re-allocate";
       continue;
     }
-    planning::GlobalPlanningProblem problem = mission::make_planning_problem(scenario, terrain);
+    const planning::GlobalPlanningProblem problem_all =
+        mission::make_planning_problem(scenario, terrain);
+    planning::GlobalPlanningProblem problem = problem_all;
     std::vector<int> survivors;
     problem.uavs.clear();
     for (int i = 0; i < n; ++i) {
@@ -191,6 +193,11 @@ GroundNodeResult run_ground_node(const mission::Scenario& scenario,
       pu.start_m = m.state.head<3>();
       pu.start_heading_rad = m.state[vehicle::kPsi];
       pu.vehicle = scenario.uavs[static_cast<std::size_t>(i)].vehicle;
+      // A survivor keeps its end and its own open targets; the lost UAV's become anyone's.
+      pu.end_m = scenario.uavs[static_cast<std::size_t>(i)].end_position_m;
+      for (std::size_t k = 0; k < open.size(); ++k)
+        for (const int required : problem_all.uavs[static_cast<std::size_t>(i)].required_targets)
+          if (required == open[k]) pu.required_targets.push_back(static_cast<int>(k));
       problem.uavs.push_back(pu);
       survivors.push_back(i);
     }

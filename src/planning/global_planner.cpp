@@ -34,6 +34,23 @@ std::string check_problem(const GlobalPlanningProblem& p) {
   } catch (const InputError& e) {
     return e.what();
   }
+  std::vector<int> owner(p.targets.size(), -1);
+  for (std::size_t i = 0; i < p.uavs.size(); ++i) {
+    for (std::size_t k = 0; k < p.uavs[i].required_targets.size(); ++k) {
+      const int t = p.uavs[i].required_targets[k];
+      if (t < 0 || t >= static_cast<int>(p.targets.size()))
+        return fmt::format("uavs[{}].required_targets[{}]: {} is not a target (0..{})", i, k, t,
+                           p.targets.size() - 1);
+      if (owner[static_cast<std::size_t>(t)] >= 0)
+        return fmt::format("uavs[{}].required_targets[{}]: target '{}' is already required of "
+                           "uavs[{}]",
+                           i, k, p.targets[static_cast<std::size_t>(t)].name,
+                           owner[static_cast<std::size_t>(t)]);
+      owner[static_cast<std::size_t>(t)] = static_cast<int>(i);
+    }
+    if (p.uavs[i].end_m && !p.uavs[i].end_m->allFinite())
+      return fmt::format("uavs[{}].end_m: not finite", i);
+  }
   return "";
 }
 
@@ -175,6 +192,28 @@ std::string_view to_string(PathSource source) {
   return "unknown";
 }
 
+AllocationProblem make_allocation_problem(const GlobalPlanningProblem& problem,
+                                          const CostEstimateOptions& options) {
+  AllocationProblem a;
+  std::vector<std::optional<Vec3>> ends;
+  a.required_uav.assign(problem.targets.size(), -1);
+  for (std::size_t i = 0; i < problem.uavs.size(); ++i) {
+    a.uav_starts_m.push_back(problem.uavs[i].start_m);
+    ends.push_back(problem.uavs[i].end_m);
+    for (const int t : problem.uavs[i].required_targets)
+      if (t >= 0 && t < static_cast<int>(problem.targets.size()))
+        a.required_uav[static_cast<std::size_t>(t)] = static_cast<int>(i);
+  }
+  a.targets = problem.targets;
+  AllocationCosts costs = estimate_allocation_costs(*problem.terrain, a.uav_starts_m,
+                                                    problem.targets, problem.limits, options, ends);
+  a.start_cost = std::move(costs.start_cost);
+  a.target_cost = std::move(costs.target_cost);
+  a.end_cost = std::move(costs.end_cost);
+  a.start_end_cost = std::move(costs.start_end_cost);
+  return a;
+}
+
 GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlannerOptions& options) {
   const auto start = Clock::now();
   GlobalPlan plan;
@@ -183,11 +222,12 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
 
   // 1. Allocation on terrain-aware estimates.
   auto stage = Clock::now();
-  std::vector<Vec3> starts;
-  for (const PlannerUav& u : problem.uavs) starts.push_back(u.start_m);
-  const AllocationCosts costs = estimate_allocation_costs(*problem.terrain, starts, problem.targets,
-                                                          problem.limits, options.cost_estimate);
-  AllocationProblem allocation_problem{starts, problem.targets, costs.start_cost, costs.target_cost};
+  AllocationProblem allocation_problem;
+  try {
+    allocation_problem = make_allocation_problem(problem, options.cost_estimate);
+  } catch (const InputError& e) {
+    return fail(std::move(plan), GlobalPlanStatus::kInvalidInput, e.what());
+  }
   plan.allocation = allocate_targets(allocation_problem, options.allocation);
   plan.allocation_time_s = seconds_since(stage);
   if (plan.allocation.status == AllocationStatus::kInvalidInput)
@@ -213,11 +253,13 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
       UavPlan uav_plan;
       uav_plan.name = u.name;
       uav_plan.targets = plan.allocation.routes[i];
-      if (uav_plan.targets.empty()) continue;  // spare UAV: no route to fly
+      if (uav_plan.targets.empty() && !u.end_m) continue;  // spare UAV: no route to fly
       std::vector<NamedPoint> targets;
       for (int t : uav_plan.targets)
         targets.push_back({problem.targets[static_cast<std::size_t>(t)].name,
                            problem.targets[static_cast<std::size_t>(t)].position_m});
+      // The end is the path's last fixed point, as a target is (the optimizer keeps it).
+      if (u.end_m) targets.push_back({u.name + " end", *u.end_m});
       const PathResult path = plan_initial_path(grid, {u.name, u.start_m}, targets);
       if (path.status == PathStatus::kUnreachable)
         return fail(std::move(plan), GlobalPlanStatus::kUnreachable, path.message);

@@ -44,6 +44,12 @@ struct PlannerUav {
   Vec3 start_m = Vec3::Zero();
   double start_heading_rad = 0.0;
   vehicle::VehicleParams vehicle;
+  /// Targets (indices into the problem's) only this UAV may visit; allocation keeps them on
+  /// its route. A target required of two UAVs is invalid input.
+  std::vector<int> required_targets = {};
+  /// Where the UAV flies after its last target, the path's fixed last point (a UAV with an
+  /// end and no target flies straight there); none: its path ends at its last target.
+  std::optional<Vec3> end_m = std::nullopt;
 };
 
 /// What the ground station knows before take-off (sudden threats are not part of it).
@@ -129,6 +135,12 @@ struct GlobalPlan {
   double validation_time_s = 0.0;
   double total_time_s = 0.0;
 };
+
+/// The allocation problem of `problem` (its UAVs' starts, required targets and ends, its targets)
+/// with the terrain-aware cost estimates; the one both the proposed and the baseline planners
+/// allocate on. Throws InputError naming a bad cost-estimate option.
+AllocationProblem make_allocation_problem(const GlobalPlanningProblem& problem,
+                                          const CostEstimateOptions& options);
 
 /// Plans the mission. Never throws on bad data: see status and message.
 GlobalPlan plan_mission(const GlobalPlanningProblem& problem,

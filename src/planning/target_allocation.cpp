@@ -44,10 +44,25 @@ class Evaluator {
   RouteValue route(int uav, const std::vector<int>& r) const {
     RouteValue v;
     for (std::size_t k = 0; k < r.size(); ++k) {
+      // A target required of another UAV makes the route infeasible: J = ∞, never chosen (its
+      // own UAV always offers a finite place).
+      if (!allowed(uav, r[k])) return {kInf, kInf};
       v.cost += k == 0 ? problem_.start_cost(uav, r[0]) : problem_.target_cost(r[k - 1], r[k]);
       v.priority_cost += excess_priority_[r[k]] * v.cost;
     }
+    if (problem_.end_cost.size() > 0)
+      v.cost += r.empty() ? problem_.start_end_cost[static_cast<std::size_t>(uav)]
+                          : problem_.end_cost(uav, r.back());
     return v;
+  }
+
+  bool allowed(int uav, int target) const {
+    return problem_.required_uav.empty() || problem_.required_uav[target] < 0 ||
+           problem_.required_uav[target] == uav;
+  }
+  /// The UAV target j must go to, or −1.
+  int required_uav(int target) const {
+    return problem_.required_uav.empty() ? -1 : problem_.required_uav[target];
   }
 
   double combine(const std::vector<RouteValue>& values) const {
@@ -347,6 +362,28 @@ std::string validate(const AllocationProblem& problem, const AllocationOptions& 
   }
   if (auto e = check_matrix(problem.start_cost, "start_cost", false); !e.empty()) return e;
   if (auto e = check_matrix(problem.target_cost, "target_cost", true); !e.empty()) return e;
+  if (!problem.required_uav.empty()) {
+    if (problem.required_uav.size() != static_cast<std::size_t>(n_target))
+      return fmt::format("required_uav: {} entries, expected n_target = {}",
+                         problem.required_uav.size(), n_target);
+    for (std::size_t j = 0; j < problem.required_uav.size(); ++j)
+      if (problem.required_uav[j] < -1 || problem.required_uav[j] >= n_uav)
+        return fmt::format("required_uav[{}]: {} is neither -1 nor a UAV (0..{})", j,
+                           problem.required_uav[j], n_uav - 1);
+  }
+  if (problem.end_cost.size() > 0 || !problem.start_end_cost.empty()) {
+    if (problem.end_cost.rows() != n_uav || problem.end_cost.cols() != n_target ||
+        problem.start_end_cost.size() != static_cast<std::size_t>(n_uav))
+      return fmt::format("end_cost: size {}x{} and start_end_cost: {} entries, expected {}x{} "
+                         "and {}",
+                         problem.end_cost.rows(), problem.end_cost.cols(),
+                         problem.start_end_cost.size(), n_uav, n_target, n_uav);
+    if (auto e = check_matrix(problem.end_cost, "end_cost", false); !e.empty()) return e;
+    for (std::size_t i = 0; i < problem.start_end_cost.size(); ++i)
+      if (!(problem.start_end_cost[i] >= 0.0) || !std::isfinite(problem.start_end_cost[i]))
+        return fmt::format("start_end_cost[{}]: cost is {}, must be finite and >= 0", i,
+                           problem.start_end_cost[i]);
+  }
   return {};
 }
 
@@ -524,7 +561,10 @@ AllocationResult allocate_targets(const AllocationProblem& problem,
   const int n_target = static_cast<int>(problem.targets.size());
   const Evaluator eval(problem, options);
 
-  if (n_uav >= n_target) {
+  const bool free_targets =
+      std::all_of(problem.required_uav.begin(), problem.required_uav.end(),
+                  [](int uav) { return uav < 0; });
+  if (n_uav >= n_target && free_targets && problem.end_cost.size() == 0) {
     result.routes = solve_one_per_uav(problem, options, eval, result.hungarian_solves);
     result.status = AllocationStatus::kOptimal;
   } else {
@@ -546,7 +586,8 @@ AllocationResult allocate_targets(const AllocationProblem& problem,
       for (int kick = 0; kick < 2; ++kick) {
         const int j = std::min(n_target - 1, static_cast<int>(rng.uniform() * n_target));
         for (auto& r : s.routes) r.erase(std::remove(r.begin(), r.end(), j), r.end());
-        const int i = std::min(n_uav - 1, static_cast<int>(rng.uniform() * n_uav));
+        int i = std::min(n_uav - 1, static_cast<int>(rng.uniform() * n_uav));
+        if (eval.required_uav(j) >= 0) i = eval.required_uav(j);  // a required target stays
         const auto [lo, hi] = eval.insertion_range(s.routes[i], j);
         const int q = std::min(hi, lo + static_cast<int>(rng.uniform() * (hi - lo + 1)));
         s.routes[i].insert(s.routes[i].begin() + q, j);
@@ -603,7 +644,8 @@ AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
                                           const std::vector<Vec3>& uav_starts_m,
                                           const std::vector<AllocationTarget>& targets,
                                           const world::SafetyLimits& limits,
-                                          const CostEstimateOptions& options) {
+                                          const CostEstimateOptions& options,
+                                          const std::vector<std::optional<Vec3>>& uav_ends_m) {
   world::validate(limits);
   if (!(options.sample_step_m > 0.0) || !std::isfinite(options.sample_step_m)) {
     throw InputError("cost_estimate.sample_step_m",
@@ -629,6 +671,21 @@ AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
       if (j != k)
         costs.target_cost(j, k) = estimate_leg_cost(terrain, targets[j].position_m,
                                                     targets[k].position_m, limits, options);
+    }
+  }
+  if (std::any_of(uav_ends_m.begin(), uav_ends_m.end(), [](const auto& e) { return e.has_value(); })) {
+    if (uav_ends_m.size() != uav_starts_m.size())
+      throw InputError("uav_ends_m", fmt::format("{} ends for {} UAVs", uav_ends_m.size(),
+                                                 uav_starts_m.size()));
+    costs.end_cost = MatX::Zero(n_uav, n_target);
+    costs.start_end_cost.assign(static_cast<std::size_t>(n_uav), 0.0);
+    for (Eigen::Index i = 0; i < n_uav; ++i) {
+      const auto& end = uav_ends_m[static_cast<std::size_t>(i)];
+      if (!end) continue;
+      costs.start_end_cost[static_cast<std::size_t>(i)] =
+          estimate_leg_cost(terrain, uav_starts_m[i], *end, limits, options);
+      for (Eigen::Index j = 0; j < n_target; ++j)
+        costs.end_cost(i, j) = estimate_leg_cost(terrain, targets[j].position_m, *end, limits, options);
     }
   }
   return costs;

@@ -9,10 +9,16 @@
 //   T(j, k)  cost to fly from target j to target k                   (n_t × n_t, diagonal unused)
 // Costs must be finite and ≥ 0; they need not be symmetric or metric.
 //
-// Routes. UAV i visits the ordered list r_i = (j_1, …, j_m) and does not return. Its route cost
-// and the arrival cost of its k-th target are
-//   C_i = S(i, j_1) + Σ_{k≥2} T(j_{k−1}, j_k),
-//   A_{j_k} = S(i, j_1) + Σ_{2≤l≤k} T(j_{l−1}, j_l).
+// Routes. UAV i visits the ordered list r_i = (j_1, …, j_m), then flies to its end if it has one
+// (return home, a landing point; else it stays). Its route cost and the arrival cost of its
+// k-th target are
+//   C_i = S(i, j_1) + Σ_{k≥2} T(j_{k−1}, j_k) + E(i, j_m),     (C_i = E₀(i) for an empty route)
+//   A_{j_k} = S(i, j_1) + Σ_{2≤l≤k} T(j_{l−1}, j_l),
+// with E(i, j) the cost from target j to UAV i's end and E₀(i) from its start to its end (both 0
+// for a UAV without an end).
+//
+// Per-UAV missions. A target may be required of one UAV (`required_uav`): it is only ever
+// placed on that UAV's route, the others go where J is lowest.
 //
 // Objective (documented choice):
 //   J = λ · max_i C_i  +  Σ_i C_i  +  β · Σ_j π_j · A_j,        π_j = p_j − min_k p_k ≥ 0
@@ -24,14 +30,14 @@
 // lower-priority one of the same UAV); equal priorities may appear in any order.
 //
 // Cases.
-//  - n_u ≥ n_t: every target goes to a distinct UAV (at most one target per UAV, so the work is
+//  - n_u ≥ n_t, no required target and no end: every target goes to a distinct UAV (at most one target per UAV, so the work is
 //    spread over the team). With one target per route, A_j = C_i and
 //    J = λ·max + Σ (1 + β π_j)·S(i, j). This is solved EXACTLY: Hungarian algorithm (O(n³),
 //    solve_assignment) on the weighted costs, swept over the thresholds "max ≤ τ" for the
 //    makespan term (τ ascending over the distinct costs, stopping once λτ + min Σ cannot beat the
 //    incumbent). With λ = 0 it is one Hungarian solve. UAVs left without a target get an empty
 //    route: the caller keeps them holding at their start (or escorting); they are not moved.
-//  - n_u < n_t: heuristic. Two constructions — regret-2 insertion and cheapest insertion, both
+//  - otherwise (n_u < n_t, or required targets or ends): heuristic. Two constructions — regret-2 insertion and cheapest insertion, both
 //    inserting only at priority-feasible positions — each improved by best-improvement local
 //    search over relocate (within or between routes), swap (between routes) and 2-opt (segment
 //    reversal within a route, only where the priority order allows it) until no move improves J;
@@ -42,6 +48,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -65,6 +72,12 @@ struct AllocationProblem {
   std::vector<AllocationTarget> targets;  ///< n_t targets
   MatX start_cost;                        ///< S(i, j), ≥ 0, finite
   MatX target_cost;                       ///< T(j, k), ≥ 0, finite off the diagonal
+  /// Per target, the UAV that must visit it, or −1 (any). Empty: every target is free.
+  std::vector<int> required_uav = {};
+  /// E(i, j) (n_u × n_t) and E₀(i) (n_u), ≥ 0, finite; a UAV without an end has zeros. Both
+  /// empty: no UAV has an end.
+  MatX end_cost = {};
+  std::vector<double> start_end_cost = {};
 };
 
 struct AllocationOptions {
@@ -78,8 +91,8 @@ struct AllocationOptions {
 };
 
 enum class AllocationStatus {
-  kOptimal,       ///< n_u ≥ n_t: exact optimum of J (Hungarian + threshold sweep)
-  kHeuristic,     ///< n_u < n_t: construction + local search, a local optimum of J
+  kOptimal,       ///< n_u ≥ n_t, free targets, no ends: exact optimum of J (Hungarian + sweep)
+  kHeuristic,     ///< otherwise: construction + local search, a local optimum of J
   kInvalidInput,  ///< see message: empty team/target list, size mismatch, NaN/negative cost
 };
 std::string_view to_string(AllocationStatus status);
@@ -134,6 +147,8 @@ struct CostEstimateOptions {
 struct AllocationCosts {
   MatX start_cost;   ///< n_u × n_t
   MatX target_cost;  ///< n_t × n_t, zero diagonal
+  MatX end_cost = {};  ///< n_u × n_t, target → the UAV's end (empty when no UAV has an end)
+  std::vector<double> start_end_cost = {};  ///< n_u, start → end (empty when no UAV has an end)
 };
 
 /// Estimated cost between two points a → b over `terrain`: the straight segment is sampled every
@@ -145,12 +160,14 @@ double estimate_leg_cost(const world::Terrain& terrain, const Vec3& a_m, const V
                          const world::SafetyLimits& limits,
                          const CostEstimateOptions& options = {});
 
-/// The S and T matrices of estimate_leg_cost for every start→target and target→target pair.
+/// The S and T matrices of estimate_leg_cost for every start→target and target→target pair,
+/// and E, E₀ toward each UAV's end when `uav_ends_m` gives one (one entry per UAV, or empty).
 /// Throws InputError (field `cost_estimate.*`) on a bad option.
 AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
                                           const std::vector<Vec3>& uav_starts_m,
                                           const std::vector<AllocationTarget>& targets,
                                           const world::SafetyLimits& limits,
-                                          const CostEstimateOptions& options = {});
+                                          const CostEstimateOptions& options = {},
+                                          const std::vector<std::optional<Vec3>>& uav_ends_m = {});
 
 }  // namespace ridgeline::planning

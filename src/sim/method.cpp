@@ -63,6 +63,7 @@ baselines::BaselineAgentOptions make_baseline_agent_options(const mission::Scena
     const mission::InspectionTarget& t = scenario.targets.at(static_cast<std::size_t>(k));
     o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
   }
+  o.fly_to_end = uav.end_position_m.has_value();
   o.control_period_s = scenario.mpc.control_period_s;
   o.prediction_step_s = scenario.mpc.prediction_step_s;
   o.prediction_steps = scenario.mpc.horizon_steps;

@@ -153,7 +153,9 @@ void Agent::update_mission(double t_s, const Vec3& position_m) {
     ++next_target_;
   }
   if (next_target_ == n) {
-    if ((n > 0 || t_s >= reference_->plan_end_time_s()) && !hold_point_threatened(t_s, position_m))
+    const bool route_flown = n > 0 && !options_.fly_to_end;
+    if ((route_flown || t_s >= reference_->plan_end_time_s()) &&
+        !hold_point_threatened(t_s, position_m))
       mode_ = AgentMode::kFinished;
     return;
   }

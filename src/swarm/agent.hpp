@@ -75,6 +75,9 @@ struct AgentOptions {
   mpc::UavTrackerOptions tracker;
   DetourOptions detour;
   std::vector<AgentTarget> targets;  ///< this UAV's, in visiting order
+  /// The plan ends at the UAV's end position (return home, a landing point) after its last
+  /// target: the agent finishes only once it has flown the reference to its end.
+  bool fly_to_end = false;
   double broadcast_period_s = 0.01;
   double threat_report_period_s = 1.0;
   double neighbour_stale_s = 1.0;

@@ -214,6 +214,37 @@ TEST(ScenarioFile, OtherConsistencyChecks) {
               HasSubstr("terrain.combination: must be 'max' or 'sum', got 'min'"));
 }
 
+TEST(ScenarioFile, PerUavTargetsAndEndsAreReadAndChecked) {
+  YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
+  root["uavs"][2]["targets"] = std::vector<std::string>{"hut", "mast"};
+  root["uavs"][2]["end"]["position_m"] = std::vector<double>{160, 70, 60};
+  YAML::Emitter out;
+  out << root;
+  const mission::Scenario s = load_scenario(out.c_str(), "missions.yaml", ".").scenario;
+  EXPECT_EQ(s.uavs[2].assigned_targets, (std::vector<std::string>{"hut", "mast"}));
+  ASSERT_TRUE(s.uavs[2].end_position_m.has_value());
+  EXPECT_EQ(*s.uavs[2].end_position_m, Vec3(160, 70, 60));
+  EXPECT_FALSE(s.uavs[0].end_position_m.has_value());
+  EXPECT_TRUE(s.uavs[0].assigned_targets.empty());
+
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["uavs"][0]["targets"] = std::vector<std::string>{"mast", "chimney"};
+              }),
+              HasSubstr("uavs[0].targets[1]: no target is named 'chimney'"));
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["uavs"][0]["targets"] = std::vector<std::string>{"mast"};
+                r["uavs"][2]["targets"] = std::vector<std::string>{"ridge", "mast"};
+              }),
+              HasSubstr("uavs[2].targets[1]: target 'mast' is already given to uavs[0] ('uav1')"));
+  // An end inside the tallest peak (300 m at (900, 1250)).
+  EXPECT_THAT(load_error([](YAML::Node& r) {
+                r["uavs"][1]["end"]["position_m"] = std::vector<double>{900, 1250, 250};
+              }),
+              HasSubstr("uavs[1].end.position_m: 70.0 m below the terrain clearance"));
+  EXPECT_THAT(load_error([](YAML::Node& r) { r["uavs"][1]["end"]["position"] = 3; }),
+              HasSubstr("uavs[1].end"));
+}
+
 TEST(ScenarioFile, AllProblemsAreCollected) {
   YAML::Node root = YAML::Load(std::string(default_scenario_yaml()));
   root["threats"][0]["radius_m"] = -1;

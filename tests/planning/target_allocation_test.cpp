@@ -238,6 +238,81 @@ TEST(AllocateTargets, PriorityWeightPullsImportantTargetFirst) {
   EXPECT_NEAR(r.objective, 1900 + 1900 + 0.1 * 4 * 1000, 1e-9);
 }
 
+// Per-UAV missions: some targets required of one UAV, some UAVs with an end (return home).
+// Brute force scores every split and order with allocation_objective, which charges the end
+// legs and makes a route holding another UAV's required target infinitely expensive.
+TEST(AllocateTargets, RequiredTargetsStayOnTheirUavAndEndLegsCountAgainstBruteForce) {
+  Rng rng(4242);
+  int optimal = 0;
+  double worst_gap = 0.0;
+  constexpr int kTrials = 60;
+  for (int trial = 0; trial < kTrials; ++trial) {
+    const int n_uav = 2 + trial % 2;
+    const int n_target = 3 + trial % 4;
+    AllocationProblem p = random_problem(rng, n_uav, n_target);
+    p.required_uav.assign(n_target, -1);
+    for (int j = 0; j < n_target; ++j) {
+      if (rng.uniform() < 0.35)
+        p.required_uav[j] = std::min(n_uav - 1, static_cast<int>(rng.uniform() * n_uav));
+    }
+    p.end_cost = MatX::Zero(n_uav, n_target);
+    p.start_end_cost.assign(n_uav, 0.0);
+    for (int i = 0; i < n_uav; ++i) {
+      if (rng.uniform() < 0.5) continue;  // this UAV has no end
+      const Vec3 end = p.uav_starts_m[i] + Vec3(rng.uniform(-300, 300), rng.uniform(-300, 300), 0);
+      p.start_end_cost[i] = (end - p.uav_starts_m[i]).norm();
+      for (int j = 0; j < n_target; ++j) p.end_cost(i, j) = (end - p.targets[j].position_m).norm();
+    }
+    const AllocationResult r = allocate_targets(p);
+    ASSERT_NE(r.status, AllocationStatus::kInvalidInput) << r.message;
+    expect_valid_allocation(p, r);
+    for (int j = 0; j < n_target; ++j) {
+      if (p.required_uav[j] >= 0) {
+        EXPECT_EQ(r.uav_of_target[j], p.required_uav[j]) << "target " << j;
+      }
+    }
+    // The reported objective is the routes' own J, end legs included.
+    EXPECT_NEAR(r.objective, allocation_objective(p, r.routes, AllocationOptions{}), 1e-6);
+    const double best = brute_force_optimum(p, AllocationOptions{}, n_target);
+    ASSERT_TRUE(std::isfinite(best));
+    const double gap = (r.objective - best) / best;
+    EXPECT_GE(gap, -1e-9);  // never better than the optimum: the brute force is the reference
+    worst_gap = std::max(worst_gap, gap);
+    if (gap < 1e-9) ++optimal;
+  }
+  std::printf("required targets and ends: optimal %d/%d, worst gap %.3f %%\n", optimal, kTrials,
+              100 * worst_gap);
+  EXPECT_LE(worst_gap, 0.05);  // the heuristic's stated bound (file comment)
+}
+
+TEST(AllocateTargets, AnEndMakesTheCloserUavTakeTheTargetOnItsWayHome) {
+  // Two UAVs at x = 0 and x = 1000, one target at x = 400. Without ends the UAV at 0 is closer
+  // (400 against 600); when the UAV at 0 must end at x = -1000 and the one at 1000 ends at x = 0,
+  // the second one's detour is the cheaper (600 + 400 against 400 + 1400).
+  AllocationProblem p;
+  p.uav_starts_m = {Vec3(0, 0, 100), Vec3(1000, 0, 100)};
+  p.targets = {{"t", Vec3(400, 0, 100), 1}};
+  p.start_cost.resize(2, 1);
+  p.start_cost << 400, 600;
+  p.target_cost = MatX::Zero(1, 1);
+  EXPECT_EQ(allocate_targets(p).uav_of_target[0], 0);
+  p.end_cost.resize(2, 1);
+  p.end_cost << 1400, 400;
+  p.start_end_cost = {1000, 1000};
+  const AllocationResult r = allocate_targets(p);
+  EXPECT_EQ(r.status, AllocationStatus::kHeuristic);
+  EXPECT_EQ(r.uav_of_target[0], 1);
+  // C_0 = 1000 (straight to its end), C_1 = 600 + 400: J = λ·1000 + 2000.
+  EXPECT_NEAR(r.objective, 1000 + 2000, 1e-9);
+  // Required of UAV 0, it goes there whatever it costs.
+  p.required_uav = {0};
+  EXPECT_EQ(allocate_targets(p).uav_of_target[0], 0);
+  p.required_uav = {2};
+  const AllocationResult bad = allocate_targets(p);
+  EXPECT_EQ(bad.status, AllocationStatus::kInvalidInput);
+  EXPECT_NE(bad.message.find("required_uav[0]"), std::string::npos) << bad.message;
+}
+
 TEST(AllocateTargets, SpareUavsGetNoTarget) {
   Rng rng(3);
   const AllocationProblem p = random_problem(rng, 5, 2);

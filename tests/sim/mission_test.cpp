@@ -72,6 +72,47 @@ TEST(Mission, SameSeedGivesTheSameFlightAndAnotherSeedAnother) {
   EXPECT_NE(a.trajectories[500].position_m, c.trajectories[500].position_m);
 }
 
+TEST(Mission, PerUavMissionsKeepRequiredTargetsAndEndWhereTheyAreSent) {
+  // u0 must inspect both targets and come home; u1 has no target but a landing point.
+  std::shared_ptr<const world::Terrain> terrain;
+  mission::Scenario s = test::small_scenario(terrain, false);
+  s.uavs[0].assigned_targets = {"b", "a"};
+  s.uavs[0].end_position_m = s.uavs[0].start_position_m;
+  s.uavs[1].end_position_m = Vec3(300, 120, 70);
+  s.simulation.duration_s = 400.0;
+  ASSERT_TRUE(validate(s, *terrain).empty());
+  const planning::GlobalPlan plan = planning::plan_mission(
+      mission::make_planning_problem(s, terrain), mission::make_planner_options(s));
+  ASSERT_EQ(plan.status, planning::GlobalPlanStatus::kPlanned) << plan.message;
+  ASSERT_EQ(plan.uavs.size(), 2u);  // u1 flies to its end although it has no target
+  for (const planning::UavPlan& up : plan.uavs) {
+    const int i = up.name == "u0" ? 0 : 1;
+    EXPECT_EQ(up.targets.size(), i == 0 ? 2u : 0u) << up.name;
+    // The path ends exactly at the end (a fixed point), and so does the reference.
+    EXPECT_LT((up.waypoints_m.back() - *s.uavs[static_cast<std::size_t>(i)].end_position_m).norm(),
+              1e-6)
+        << up.name;
+    EXPECT_LT((up.timing.samples.back().position_m -
+               *s.uavs[static_cast<std::size_t>(i)].end_position_m)
+                  .norm(),
+              1e-3);
+  }
+  const mission::MissionResult r = fly_mission(s, terrain, plan);
+  const mission::MissionMetrics& m = r.metrics;
+  EXPECT_TRUE(m.safe()) << to_json(m).dump(2);
+  EXPECT_TRUE(m.mission_complete) << to_json(m).dump(2);
+  ASSERT_EQ(m.uavs.size(), 2u);
+  EXPECT_EQ(m.uavs[0].targets_assigned, 2);
+  EXPECT_EQ(m.uavs[0].targets_inspected, 2);
+  for (const mission::UavMetrics& u : m.uavs) {
+    EXPECT_TRUE(u.end_reached) << u.name;
+    // It finished at the end of its reference, within tracking error of the end.
+    EXPECT_LT(u.end_distance_m, 10.0) << u.name;
+  }
+  // Without the end, u0 would have finished at its last target, 700 m from home.
+  EXPECT_GT(m.uavs[0].path_length_m, 1400.0);
+}
+
 TEST(Mission, UnplannedPlanIsRejectedWithTheField) {
   const Fixture f = small_mission(false);
   planning::GlobalPlan bad = f.plan;
