@@ -333,7 +333,8 @@ planning::GlobalPlan plan_baseline_mission(const planning::GlobalPlanningProblem
       if (uav_plan.targets.empty() && !u.end_m) continue;
       // The route's stops: its targets, then its end (return home, a landing point).
       std::vector<AllocationTarget> stops;
-      for (const int t : uav_plan.targets) stops.push_back(problem.targets[static_cast<std::size_t>(t)]);
+      for (const int t : uav_plan.targets)
+        stops.push_back(problem.targets[static_cast<std::size_t>(t)]);
       if (u.end_m) stops.push_back({u.name + " end", *u.end_m, 0});
       const LegCost cost(options, u.vehicle.cruise_speed_m_s);
       std::vector<Vec2> polyline{u.start_m.head<2>()};

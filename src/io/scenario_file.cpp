@@ -192,7 +192,8 @@ mission::UavSpec parse_uav(const YamlValue& item, const vehicle::VehicleParams& 
   start.finish();
   uav.sensor_range_m = m.get_double("sensor_range_m", uav.sensor_range_m);
   if (auto targets = m.optional("targets"))
-    for (const YamlValue& name : targets->as_list()) uav.assigned_targets.push_back(name.as_string());
+    for (const YamlValue& name : targets->as_list())
+      uav.assigned_targets.push_back(name.as_string());
   if (auto end = m.optional("end")) {
     YamlMap e = end->as_map();
     uav.end_position_m = parse_position(e, "position_m", "position_geo", frame);

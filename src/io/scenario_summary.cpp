@@ -71,15 +71,16 @@ nlohmann::json summarize(const LoadedScenario& loaded) {
 
   for (const mission::UavSpec& u : s.uavs) {
     const double ground = terrain.height(u.start_position_m.x(), u.start_position_m.y());
-    j["uavs"].push_back({{"name", u.name},
-                         {"start_m", vec3(u.start_position_m)},
-                         {"start_clearance_m", u.start_position_m.z() - ground},
-                         {"cruise_speed_m_s", u.vehicle.cruise_speed_m_s},
-                         {"speed_range_m_s", {u.vehicle.min_speed_m_s(), u.vehicle.max_speed_m_s()}},
-                         {"min_turn_radius_m", u.vehicle.min_turn_radius_m},
-                         {"sensor_range_m", u.sensor_range_m},
-                         {"assigned_targets", u.assigned_targets},
-                         {"end_m", u.end_position_m ? vec3(*u.end_position_m) : nlohmann::json()}});
+    j["uavs"].push_back(
+        {{"name", u.name},
+         {"start_m", vec3(u.start_position_m)},
+         {"start_clearance_m", u.start_position_m.z() - ground},
+         {"cruise_speed_m_s", u.vehicle.cruise_speed_m_s},
+         {"speed_range_m_s", {u.vehicle.min_speed_m_s(), u.vehicle.max_speed_m_s()}},
+         {"min_turn_radius_m", u.vehicle.min_turn_radius_m},
+         {"sensor_range_m", u.sensor_range_m},
+         {"assigned_targets", u.assigned_targets},
+         {"end_m", u.end_position_m ? vec3(*u.end_position_m) : nlohmann::json()}});
   }
   for (const mission::InspectionTarget& t : s.targets) {
     const double ground = terrain.height(t.position_m.x(), t.position_m.y());

@@ -125,9 +125,8 @@ MissionResult FlightRecorder::finish(double t, const std::vector<UavOutcome>& ou
     um.stale_neighbour_steps = static_cast<long long>(c.stale_neighbour_steps);
     um.messages_rejected = static_cast<long long>(c.messages_rejected);
     um.max_slack_m = u.max_slack_m;
-    m.mission_complete =
-        m.mission_complete && um.finished && um.targets_inspected == um.targets_assigned &&
-        (!end || um.end_reached);
+    m.mission_complete = m.mission_complete && um.finished &&
+                         um.targets_inspected == um.targets_assigned && (!end || um.end_reached);
     m.uavs.push_back(std::move(um));
   }
   safety_.write(m);

@@ -3,9 +3,9 @@
 // believe.
 #pragma once
 
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <limits>
 #include <string>
 #include <vector>
 

@@ -14,8 +14,8 @@ planning::GlobalPlanningProblem make_planning_problem(
   for (const InspectionTarget& t : scenario.targets)
     problem.targets.push_back({t.name, t.position_m, t.priority});
   for (const UavSpec& u : scenario.uavs) {
-    planning::PlannerUav pu{u.name, u.start_position_m, u.start_heading_rad, u.vehicle, {},
-                            u.end_position_m};
+    planning::PlannerUav pu{u.name, u.start_position_m, u.start_heading_rad, u.vehicle,
+                            {},     u.end_position_m};
     for (const std::string& name : u.assigned_targets) {
       // validate() has checked that the name exists; an unknown one is skipped, never guessed.
       const auto it = std::find_if(scenario.targets.begin(), scenario.targets.end(),

@@ -42,10 +42,10 @@ std::string check_problem(const GlobalPlanningProblem& p) {
         return fmt::format("uavs[{}].required_targets[{}]: {} is not a target (0..{})", i, k, t,
                            p.targets.size() - 1);
       if (owner[static_cast<std::size_t>(t)] >= 0)
-        return fmt::format("uavs[{}].required_targets[{}]: target '{}' is already required of "
-                           "uavs[{}]",
-                           i, k, p.targets[static_cast<std::size_t>(t)].name,
-                           owner[static_cast<std::size_t>(t)]);
+        return fmt::format(
+            "uavs[{}].required_targets[{}]: target '{}' is already required of "
+            "uavs[{}]",
+            i, k, p.targets[static_cast<std::size_t>(t)].name, owner[static_cast<std::size_t>(t)]);
       owner[static_cast<std::size_t>(t)] = static_cast<int>(i);
     }
     if (p.uavs[i].end_m && !p.uavs[i].end_m->allFinite())

@@ -374,10 +374,11 @@ std::string validate(const AllocationProblem& problem, const AllocationOptions& 
   if (problem.end_cost.size() > 0 || !problem.start_end_cost.empty()) {
     if (problem.end_cost.rows() != n_uav || problem.end_cost.cols() != n_target ||
         problem.start_end_cost.size() != static_cast<std::size_t>(n_uav))
-      return fmt::format("end_cost: size {}x{} and start_end_cost: {} entries, expected {}x{} "
-                         "and {}",
-                         problem.end_cost.rows(), problem.end_cost.cols(),
-                         problem.start_end_cost.size(), n_uav, n_target, n_uav);
+      return fmt::format(
+          "end_cost: size {}x{} and start_end_cost: {} entries, expected {}x{} "
+          "and {}",
+          problem.end_cost.rows(), problem.end_cost.cols(), problem.start_end_cost.size(), n_uav,
+          n_target, n_uav);
     if (auto e = check_matrix(problem.end_cost, "end_cost", false); !e.empty()) return e;
     for (std::size_t i = 0; i < problem.start_end_cost.size(); ++i)
       if (!(problem.start_end_cost[i] >= 0.0) || !std::isfinite(problem.start_end_cost[i]))
@@ -561,9 +562,8 @@ AllocationResult allocate_targets(const AllocationProblem& problem,
   const int n_target = static_cast<int>(problem.targets.size());
   const Evaluator eval(problem, options);
 
-  const bool free_targets =
-      std::all_of(problem.required_uav.begin(), problem.required_uav.end(),
-                  [](int uav) { return uav < 0; });
+  const bool free_targets = std::all_of(problem.required_uav.begin(), problem.required_uav.end(),
+                                        [](int uav) { return uav < 0; });
   if (n_uav >= n_target && free_targets && problem.end_cost.size() == 0) {
     result.routes = solve_one_per_uav(problem, options, eval, result.hungarian_solves);
     result.status = AllocationStatus::kOptimal;
@@ -673,10 +673,11 @@ AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
                                                     targets[k].position_m, limits, options);
     }
   }
-  if (std::any_of(uav_ends_m.begin(), uav_ends_m.end(), [](const auto& e) { return e.has_value(); })) {
+  if (std::any_of(uav_ends_m.begin(), uav_ends_m.end(),
+                  [](const auto& e) { return e.has_value(); })) {
     if (uav_ends_m.size() != uav_starts_m.size())
-      throw InputError("uav_ends_m", fmt::format("{} ends for {} UAVs", uav_ends_m.size(),
-                                                 uav_starts_m.size()));
+      throw InputError("uav_ends_m",
+                       fmt::format("{} ends for {} UAVs", uav_ends_m.size(), uav_starts_m.size()));
     costs.end_cost = MatX::Zero(n_uav, n_target);
     costs.start_end_cost.assign(static_cast<std::size_t>(n_uav), 0.0);
     for (Eigen::Index i = 0; i < n_uav; ++i) {
@@ -685,7 +686,8 @@ AllocationCosts estimate_allocation_costs(const world::Terrain& terrain,
       costs.start_end_cost[static_cast<std::size_t>(i)] =
           estimate_leg_cost(terrain, uav_starts_m[i], *end, limits, options);
       for (Eigen::Index j = 0; j < n_target; ++j)
-        costs.end_cost(i, j) = estimate_leg_cost(terrain, targets[j].position_m, *end, limits, options);
+        costs.end_cost(i, j) =
+            estimate_leg_cost(terrain, targets[j].position_m, *end, limits, options);
     }
   }
   return costs;

@@ -30,14 +30,16 @@
 // lower-priority one of the same UAV); equal priorities may appear in any order.
 //
 // Cases.
-//  - n_u ≥ n_t, no required target and no end: every target goes to a distinct UAV (at most one target per UAV, so the work is
+//  - n_u ≥ n_t, no required target and no end: every target goes to a distinct UAV (at most one
+//  target per UAV, so the work is
 //    spread over the team). With one target per route, A_j = C_i and
 //    J = λ·max + Σ (1 + β π_j)·S(i, j). This is solved EXACTLY: Hungarian algorithm (O(n³),
 //    solve_assignment) on the weighted costs, swept over the thresholds "max ≤ τ" for the
 //    makespan term (τ ascending over the distinct costs, stopping once λτ + min Σ cannot beat the
 //    incumbent). With λ = 0 it is one Hungarian solve. UAVs left without a target get an empty
 //    route: the caller keeps them holding at their start (or escorting); they are not moved.
-//  - otherwise (n_u < n_t, or required targets or ends): heuristic. Two constructions — regret-2 insertion and cheapest insertion, both
+//  - otherwise (n_u < n_t, or required targets or ends): heuristic. Two constructions — regret-2
+//  insertion and cheapest insertion, both
 //    inserting only at priority-feasible positions — each improved by best-improvement local
 //    search over relocate (within or between routes), swap (between routes) and 2-opt (segment
 //    reversal within a route, only where the priority order allows it) until no move improves J;

@@ -92,10 +92,10 @@ TEST(Mission, PerUavMissionsKeepRequiredTargetsAndEndWhereTheyAreSent) {
     EXPECT_LT((up.waypoints_m.back() - *s.uavs[static_cast<std::size_t>(i)].end_position_m).norm(),
               1e-6)
         << up.name;
-    EXPECT_LT((up.timing.samples.back().position_m -
-               *s.uavs[static_cast<std::size_t>(i)].end_position_m)
-                  .norm(),
-              1e-3);
+    EXPECT_LT(
+        (up.timing.samples.back().position_m - *s.uavs[static_cast<std::size_t>(i)].end_position_m)
+            .norm(),
+        1e-3);
   }
   const mission::MissionResult r = fly_mission(s, terrain, plan);
   const mission::MissionMetrics& m = r.metrics;
