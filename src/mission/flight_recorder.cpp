@@ -27,7 +27,9 @@ FlightRecorder::FlightRecorder(const Scenario& scenario, const world::Terrain& t
     result_.metrics.constraint_violations[kind] = 0;
 }
 
-void FlightRecorder::sensed(int uav, int threat) { safety_.sensed(uav, threat); }
+void FlightRecorder::sensed(int uav, int threat, double t, const TruthWorld& world) {
+  safety_.sensed(uav, threat, t, world);
+}
 
 void FlightRecorder::control_step(int i, double t, const TruthWorld& world,
                                   const ControlReport& r) {

@@ -51,8 +51,8 @@ class FlightRecorder {
   FlightRecorder(const Scenario& scenario, const world::Terrain& terrain, const TruthWorld& world,
                  bool record_trajectories);
 
-  /// UAV `uav`'s sensor saw threat `threat` at a control tick (an encounter).
-  void sensed(int uav, int threat);
+  /// UAV `uav`'s sensor saw threat `threat` at control tick t (an encounter).
+  void sensed(int uav, int threat, double t, const TruthWorld& world);
   /// UAV `uav` at control tick t, after its command was applied.
   void control_step(int uav, double t_s, const TruthWorld& world, const ControlReport& report);
   /// A control tick at which UAV `uav` had no answer (agent not started, lost, or late): the

@@ -53,6 +53,12 @@ struct MissionMetrics {
   double min_threat_distance_m = 0.0;   ///< to the threat surface; +inf without threats
   int threat_encounters = 0;            ///< (UAV, threat) pairs where the UAV sensed it
   int threat_intrusions = 0;            ///< (UAV, threat) pairs that ever were inside it
+  /// Of the intrusions, those no command within the limits could have avoided when the UAV
+  /// first sensed the threat (threat_escape.hpp), with the straight-line time to contact at
+  /// that moment; the rest are avoidable (the product's fault; must be 0).
+  int unavoidable_intrusions = 0;
+  int avoidable_intrusions = 0;
+  std::vector<double> unavoidable_intrusion_contact_s;
   int threat_margin_violations = 0;     ///< pairs that came inside R + r_safe (not a collision)
   double avoidance_success_rate = 1.0;  ///< (encounters − intrusions)/encounters; 1 if none
   int terrain_collisions = 0;           ///< UAVs that ever were below the terrain

@@ -19,7 +19,12 @@ SafetyTally::SafetyTally(const world::SafetyLimits& limits, int num_uavs,
       min_separation_m_(kInf),
       min_threat_m_(kInf) {}
 
-void SafetyTally::sensed(int uav, int threat) { encounters_.insert({uav, threat}); }
+void SafetyTally::sensed(int uav, int threat, double t, const TruthWorld& world) {
+  if (!encounters_.insert({uav, threat}).second) return;
+  escapes_[{uav, threat}] =
+      assess_escape(world.true_state(uav), world.true_wind(uav), world.truth_params(uav),
+                    world.threats()[static_cast<std::size_t>(threat)], t);
+}
 
 void SafetyTally::sample(double t, const TruthWorld& world) {
   const int n = world.num_uavs();
@@ -49,6 +54,15 @@ void SafetyTally::write(MissionMetrics& m) const {
   encounters.insert(intrusions_.begin(), intrusions_.end());
   m.threat_encounters = static_cast<int>(encounters.size());
   m.threat_intrusions = static_cast<int>(intrusions_.size());
+  m.unavoidable_intrusions = 0;
+  m.unavoidable_intrusion_contact_s.clear();
+  for (const auto& pair : intrusions_) {
+    const auto it = escapes_.find(pair);
+    if (it == escapes_.end() || !it->second.unavoidable) continue;
+    ++m.unavoidable_intrusions;
+    m.unavoidable_intrusion_contact_s.push_back(it->second.time_to_contact_s);
+  }
+  m.avoidable_intrusions = m.threat_intrusions - m.unavoidable_intrusions;
   m.threat_margin_violations = static_cast<int>(margin_violations_.size());
   m.avoidance_success_rate = encounters.empty()
                                  ? 1.0

@@ -4,11 +4,13 @@
 // mission (fly_mission) and the DDS world (nodes::MissionRecorder), so both count alike.
 #pragma once
 
+#include <map>
 #include <set>
 #include <utility>
 #include <vector>
 
 #include "mission/mission_metrics.hpp"
+#include "mission/threat_escape.hpp"
 #include "mission/truth_world.hpp"
 #include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
@@ -20,13 +22,15 @@ class SafetyTally {
   /// Counts against `limits` (d_safe, r_safe) for `num_uavs` UAVs.
   SafetyTally(const world::SafetyLimits& limits, int num_uavs, const world::Terrain& terrain);
 
-  /// UAV `uav` sensed threat `threat`: an encounter.
-  void sensed(int uav, int threat);
+  /// UAV `uav` sensed threat `threat` at time t: an encounter. The first time, whether an
+  /// escape was still possible is assessed on the truth (threat_escape.hpp).
+  void sensed(int uav, int threat, double t, const TruthWorld& world);
   /// The truth's distances at time t.
   void sample(double t, const TruthWorld& world);
   /// Writes the overall distances and counts into `m`, and each UAV's minimum clearance into
   /// m.uavs[i] (m.uavs must hold every UAV). An intrusion counts as an encounter even if it
-  /// happened before the UAV sensed the threat.
+  /// happened before the UAV sensed the threat; it is unavoidable when its first sensing found
+  /// no escape, else (also when never sensed) avoidable.
   void write(MissionMetrics& m) const;
 
  private:
@@ -35,6 +39,7 @@ class SafetyTally {
   std::vector<double> min_clearance_m_;
   double min_separation_m_, min_threat_m_;
   std::set<std::pair<int, int>> encounters_, intrusions_, margin_violations_, close_pairs_;
+  std::map<std::pair<int, int>, ThreatEscape> escapes_;  ///< at each pair's first sensing
 };
 
 }  // namespace ridgeline::mission

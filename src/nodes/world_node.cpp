@@ -226,7 +226,7 @@ WorldNodeResult run_world_node(const mission::Scenario& scenario,
       for (const int k : sensed) {
         const world::Threat& th = world.threats()[static_cast<std::size_t>(k)];
         m.threats.push_back({k, th.centre_at(t), th.velocity_m_s, th.radius_m});
-        recorder.sensed(i, k);
+        recorder.sensed(i, k, t, world);
       }
       m.state = world.measured_state(i);
       m.wind_m_s = world.measured_wind(i);

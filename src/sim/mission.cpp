@@ -164,7 +164,7 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
         for (const int k : sensed) {
           const world::Threat& th = world.threats()[static_cast<std::size_t>(k)];
           observations.push_back({k, th.centre_at(t), th.velocity_m_s, th.radius_m});
-          recorder.sensed(i, k);
+          recorder.sensed(i, k, t, world);
         }
         outbox.clear();
         agent.sense(t, observations, outbox);

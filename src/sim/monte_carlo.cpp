@@ -101,8 +101,8 @@ MonteCarloReport run_monte_carlo(const mission::Scenario& scenario,
 
 nlohmann::json MonteCarloReport::summary() const {
   const long long n = static_cast<long long>(runs.size());
-  long long safe = 0, complete = 0, encounters = 0, intrusions = 0, collisions = 0, separation = 0,
-            violations = 0, targets = 0, inspected = 0;
+  long long safe = 0, complete = 0, encounters = 0, intrusions = 0, unavoidable = 0, collisions = 0,
+            separation = 0, violations = 0, targets = 0, inspected = 0;
   std::vector<double> min_sep, min_threat, min_clear, rmse, path, step_median, step_p99, sim_time,
       wall_time, cpu_time, replans;
   nlohmann::json failed = nlohmann::json::array();
@@ -112,6 +112,7 @@ nlohmann::json MonteCarloReport::summary() const {
     complete += m.mission_complete ? 1 : 0;
     encounters += m.threat_encounters;
     intrusions += m.threat_intrusions;
+    unavoidable += m.unavoidable_intrusions;
     collisions += m.terrain_collisions;
     separation += m.separation_violations;
     violations += m.total_constraint_violations();
@@ -160,6 +161,8 @@ nlohmann::json MonteCarloReport::summary() const {
             {"terrain_collisions", collisions},
             {"threat_encounters", encounters},
             {"threat_intrusions", intrusions},
+            {"threat_intrusions_unavoidable", unavoidable},
+            {"threat_intrusions_avoidable", intrusions - unavoidable},
             {"separation_violations", separation},
             {"constraint_violations", violations},
             {"targets_assigned", targets},
