@@ -53,7 +53,8 @@ bool IncrementalMpcData::add_soft_row(int step, const Eigen::Ref<const VecX>& a,
 IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const IncrementalMpcOptions& options)
     : dims_(dims), options_(options), solver_(options.qp_settings) {
   require(dims.state_dim >= 1, "dims.state_dim", "must be >= 1");
-  require(dims.input_dim >= 1, "dims.input_dim", "must be >= 1");
+  require(dims.input_dim >= 1 && dims.input_dim <= 64, "dims.input_dim",
+          "must be between 1 and 64 (an input set is a 64-bit mask)");
   require(dims.output_dim >= 1, "dims.output_dim", "must be >= 1");
   require(dims.disturbance_dim >= 0, "dims.disturbance_dim", "must be >= 0");
   require(dims.soft_row_capacity >= 0, "dims.soft_row_capacity", "must be >= 0");
@@ -141,6 +142,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   a_entries_.resize(static_cast<std::size_t>(np_) * ns_ * ns_);
   a_begin_.assign(np_ + 1, 0);
   c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
+  a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
   Gamma_ = RowMatX::Zero(ns_, nc_ * nu_);
   Gnext_ = RowMatX::Zero(ns_, nc_ * nu_);
@@ -158,14 +160,16 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   y_ = VecX::Zero(ny_);
   w_ = VecX::Zero(ns_);
   state_reach_.assign(ns_, 0);
-  next_reach_.assign(ns_, 0);
   output_reach_.assign(ny_, 0);
+  phi_reach_.assign(ny_, 0);
   group_reach_.assign(ny_, 0);
   group_columns_.assign(nc_ * nu_, 0);
   group_w_ = MatX::Zero(nc_ * nu_, np_ * ny_);
   group_e_ = VecX::Zero(np_ * ny_);
   group_h_ = MatX::Zero(nc_ * nu_, nc_ * nu_);
   group_f_ = VecX::Zero(nc_ * nu_);
+  Hp_ = MatX::Zero(nc_ * nu_, nc_ * nu_);
+  fp_ = VecX::Zero(nc_ * nu_);
   soft_row_ = VecX::Zero(nc_ * nu_);
 
   // QP layout: rows [input limits (Nc·n_u) | hard output limits (Np·n_y, optional) | soft].
@@ -249,13 +253,17 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // the forward pass and the solution's simulation both multiply by every A_j: listing the
   // nonzeros once lets both skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
+  std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
   int n = 0;
   for (int j = 0; j < np_; ++j) {
     a_begin_[j] = n;
     const MatX& A = d.A[j];
     for (int l = 0; l < ns_; ++l) {
       for (int k = 0; k < ns_; ++k) {
-        if (A(k, l) != 0.0) a_entries_[n++] = Entry{k, l, A(k, l)};
+        if (A(k, l) != 0.0) {
+          a_entries_[n++] = Entry{k, l, A(k, l)};
+          a_pattern_[k * ns_ + l] = 1;
+        }
       }
     }
   }
@@ -266,68 +274,107 @@ void IncrementalMpc::collect_plant_nonzeros() {
       if (d.C(k, l) != 0.0) c_entries_[c_count_++] = Entry{k, l, d.C(k, l)};
     }
   }
+  // The reach of each state (bit c: some move of input c changes it at some step): the
+  // inputs of its B rows, closed over the union pattern of the A_j. Outside its reach a row of
+  // Γ is zero at every step, and so is an output's row of Φ outside the union of the reaches
+  // its C row reads.
+  std::fill(state_reach_.begin(), state_reach_.end(), 0);
+  for (int j = 0; j < nc_; ++j) {
+    for (int k = 0; k < ns_; ++k) {
+      for (int c = 0; c < nu_; ++c) {
+        if (d.B[j](k, c) != 0.0) state_reach_[k] |= std::uint64_t{1} << c;
+      }
+    }
+  }
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int k = 0; k < ns_; ++k) {
+      for (int l = 0; l < ns_; ++l) {
+        if (a_pattern_[k * ns_ + l] != 0 && (state_reach_[l] & ~state_reach_[k]) != 0) {
+          state_reach_[k] |= state_reach_[l];
+          changed = true;
+        }
+      }
+    }
+  }
+  std::fill(output_reach_.begin(), output_reach_.end(), 0);
+  for (int e = 0; e < c_count_; ++e) {
+    output_reach_[c_entries_[e].row] |= state_reach_[c_entries_[e].col];
+  }
 }
 
 void IncrementalMpc::build_prediction() {
   const IncrementalMpcData& d = data_;
   collect_plant_nonzeros();
-  // One forward pass (eq. 7–9) over the stage matrices. Γ (row-major: a row update is one
-  // contiguous AXPY) holds ∂Δs_{j+1}/∂ΔU over the columns of the moves started so far; the
-  // free increment ds and output y are the same recursion with every move zero:
+  // One forward pass (eq. 7–9) over the stage matrices. Γ holds ∂Δs_{j+1}/∂ΔU; the free
+  // increment ds and output y are the same recursion with every move zero:
   //   Γ_j = A_j Γ_{j−1} + [B_j in the columns of move j],   Φ_j = Φ_{j−1} + C Γ_j,
   //   ds_j = A_j ds_{j−1} + w_j,                              y_j = y_{j−1} + C ds_j.
-  // Alongside, the structural reach of the inputs (bit c: input c) is propagated through the
-  // same nonzeros, for the cost sums of build_cost().
-  std::fill(state_reach_.begin(), state_reach_.end(), 0);
-  std::fill(output_reach_.begin(), output_reach_.end(), 0);
+  // Γ and Φ are row-major with the columns ordered by input, then move (column c·Nc + i is
+  // Δu_{k+i,c}): a row's part for one input is then contiguous, the moves started so far are
+  // its first entries, and a row update touches only the inputs in the row's reach.
+  if (output_reach_ != phi_reach_) {
+    Phi_.setZero();  // entries outside a reach are never written: clear those of an old one
+    phi_reach_ = output_reach_;
+  }
   ds_ = d.delta_state;
   y_ = d.output;
   RowMatX* G = &Gamma_;
   RowMatX* Gn = &Gnext_;
   for (int j = 0; j < np_; ++j) {
-    const int active = std::min(j, nc_) * nu_;           // moves started before step j
-    const int used = std::min(j + 1, nc_) * nu_;         // ... and by step j
+    const int active = std::min(j, nc_);  // moves started before step j (per input)
+    const int used = std::min(j + 1, nc_);  // ... and by step j
     w_ = d.state_offset.col(j);
     if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
     dsn_ = w_;
-    if (active > 0) Gn->leftCols(active).setZero();
-    std::fill(next_reach_.begin(), next_reach_.end(), 0);
+    for (int k = 0; k < ns_; ++k) {
+      for (int c = 0; c < nu_; ++c) {
+        if (((state_reach_[k] >> c) & 1U) == 0) continue;
+        std::fill_n(Gn->row(k).data() + c * nc_, active, 0.0);
+      }
+    }
     for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
-      const Entry& a = a_entries_[e];
+      const Entry a = a_entries_[e];  // a copy: stores through dst cannot change it
       dsn_[a.row] += a.value * ds_[a.col];
-      double* dst = Gn->row(a.row).data();
-      const double* src = G->row(a.col).data();
-      for (int c = 0; c < active; ++c) dst[c] += a.value * src[c];
-      next_reach_[a.row] |= state_reach_[a.col];
+      const std::uint64_t reach = state_reach_[a.col];
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) == 0) continue;
+        double* dst = Gn->row(a.row).data() + c * nc_;
+        const double* src = G->row(a.col).data() + c * nc_;
+        for (int i = 0; i < active; ++i) dst[i] += a.value * src[i];
+      }
     }
     if (j < nc_) {
       const MatX& B = d.B[j];
       for (int k = 0; k < ns_; ++k) {
         for (int c = 0; c < nu_; ++c) {
-          (*Gn)(k, active + c) = B(k, c);
-          if (B(k, c) != 0.0) next_reach_[k] |= std::uint64_t{1} << (c & 63);
+          if (((state_reach_[k] >> c) & 1U) != 0) (*Gn)(k, c * nc_ + j) = B(k, c);
         }
       }
     }
     std::swap(G, Gn);
     std::swap(ds_, dsn_);
-    state_reach_.swap(next_reach_);
     for (int k = 0; k < ny_; ++k) {
       double* row = Phi_.row(j * ny_ + k).data();
-      if (j > 0) {
-        const double* prev = Phi_.row((j - 1) * ny_ + k).data();
-        for (int c = 0; c < used; ++c) row[c] = prev[c];
-      } else {
-        for (int c = 0; c < used; ++c) row[c] = 0.0;
+      for (int c = 0; c < nu_; ++c) {
+        if (((output_reach_[k] >> c) & 1U) == 0) continue;
+        if (j > 0) {
+          std::copy_n(Phi_.row((j - 1) * ny_ + k).data() + c * nc_, used, row + c * nc_);
+        } else {
+          std::fill_n(row + c * nc_, used, 0.0);
+        }
       }
     }
     for (int e = 0; e < c_count_; ++e) {
-      const Entry& cz = c_entries_[e];
+      const Entry cz = c_entries_[e];
       y_[cz.row] += cz.value * ds_[cz.col];
-      double* row = Phi_.row(j * ny_ + cz.row).data();
-      const double* src = G->row(cz.col).data();
-      for (int c = 0; c < used; ++c) row[c] += cz.value * src[c];
-      output_reach_[cz.row] |= state_reach_[cz.col];
+      const std::uint64_t reach = state_reach_[cz.col];
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) == 0) continue;
+        double* dst = Phi_.row(j * ny_ + cz.row).data() + c * nc_;
+        const double* src = G->row(cz.col).data() + c * nc_;
+        for (int i = 0; i < used; ++i) dst[i] += cz.value * src[i];
+      }
     }
     Yfree_.segment(j * ny_, ny_) = y_;
   }
@@ -338,14 +385,13 @@ void IncrementalMpc::build_cost() {
   const int nU = nc_ * nu_;
   // Cost (eq. 10): H_uu = 2(ΦᵀQ̄Φ + R̄), f_u = −2ΦᵀQ̄(R − Y_free). Q̄ is diagonal, so
   // ΦᵀQ̄Φ = Σ_r (√q_r φ_r)(√q_r φ_r)ᵀ over the rows r of Φ. Output components with the same
-  // structural reach form a group whose rows are nonzero only in the columns S of the inputs
-  // it reaches; its part is a rank update W Wᵀ of the packed |S|×rows matrix W, added into
+  // reach form a group whose rows are nonzero only in the columns S of the inputs it
+  // reaches; its part is a rank update W Wᵀ of the packed |S|×rows matrix W, added into
   // H(S, S). For the UAV that is 80 rows × 20 columns (x, y) and 40 × 10 (z) instead of
-  // 120 × 30: a third of the flops of the dense product.
-  auto Huu = qp_.H.topLeftCorner(nU, nU);
-  Huu.setZero();
-  auto f = qp_.f.head(nU);
-  f.setZero();
+  // 120 × 30: a third of the flops of the dense product. Sums run in Φ's column order and are
+  // moved to the QP's (move, then input) at the end.
+  Hp_.setZero();
+  fp_.setZero();
   for (int j = 0; j < np_; ++j) {
     for (int k = 0; k < ny_; ++k) {
       const int r = j * ny_ + k;
@@ -355,7 +401,7 @@ void IncrementalMpc::build_cost() {
   int groups = 0;
   for (int k = 0; k < ny_; ++k) {
     const std::uint64_t reach = output_reach_[k];
-    if (reach == 0) continue;  // an output no input moves: Φ's rows are zero
+    if (reach == 0) continue;  // an output no input moves: its rows of Φ are zero
     if (std::find(group_reach_.begin(), group_reach_.begin() + groups, reach) !=
         group_reach_.begin() + groups) {
       continue;  // packed with the first component of the same reach
@@ -363,10 +409,9 @@ void IncrementalMpc::build_cost() {
     group_reach_[groups++] = reach;
     int* cols = group_columns_.data();
     int size = 0;
-    for (int i = 0; i < nc_; ++i) {
-      for (int c = 0; c < nu_; ++c) {
-        if (nu_ > 64 || ((reach >> c) & 1U) != 0) cols[size++] = i * nu_ + c;
-      }
+    for (int c = 0; c < nu_; ++c) {
+      if (((reach >> c) & 1U) == 0) continue;
+      for (int i = 0; i < nc_; ++i) cols[size++] = c * nc_ + i;
     }
     int rows = 0;
     for (int j = 0; j < np_; ++j) {
@@ -375,7 +420,7 @@ void IncrementalMpc::build_cost() {
         const int r = j * ny_ + kk;
         const double* phi = Phi_.row(r).data();
         double* w = group_w_.col(rows).data();
-        for (int i = 0; i < size; ++i) w[i] = qsqrt_[r] * phi[cols[i]];
+        for (int a = 0; a < size; ++a) w[a] = qsqrt_[r] * phi[cols[a]];
         group_e_[rows++] = err_[r];
       }
     }
@@ -386,16 +431,25 @@ void IncrementalMpc::build_cost() {
     auto fg = group_f_.head(size);
     fg.noalias() = W * group_e_.head(rows);
     for (int b = 0; b < size; ++b) {
-      f[cols[b]] -= 2.0 * fg[b];
-      for (int a = b; a < size; ++a) Huu(cols[a], cols[b]) += Hg(a, b);
+      fp_[cols[b]] -= 2.0 * fg[b];
+      for (int a = b; a < size; ++a) Hp_(cols[a], cols[b]) += Hg(a, b);  // cols ascend: lower
+    }
+  }
+  auto Huu = qp_.H.topLeftCorner(nU, nU);
+  for (int cb = 0; cb < nu_; ++cb) {
+    for (int ib = 0; ib < nc_; ++ib) {
+      const int b = cb * nc_ + ib, qb = ib * nu_ + cb;
+      qp_.f[qb] = fp_[b];
+      for (int ca = 0; ca < nu_; ++ca) {
+        for (int ia = 0; ia < nc_; ++ia) {
+          const int a = ca * nc_ + ia;
+          Huu(ia * nu_ + ca, qb) = a >= b ? Hp_(a, b) : Hp_(b, a);
+        }
+      }
     }
   }
   for (int i = 0; i < nc_; ++i) {
     for (int c = 0; c < nu_; ++c) Huu(i * nu_ + c, i * nu_ + c) += 2.0 * options_.move_weight[c];
-  }
-  // The group columns are ascending, so every sum above landed in the lower triangle.
-  for (int c = 1; c < nU; ++c) {
-    for (int r = 0; r < c; ++r) Huu(r, c) = Huu(c, r);
   }
 }
 
@@ -417,7 +471,6 @@ void IncrementalMpc::resize_soft_rows(int needed) {
 
 void IncrementalMpc::assemble_qp() {
   const IncrementalMpcData& d = data_;
-  const int nU = nc_ * nu_;
   // Move bounds Δu_min ≤ Δu ≤ Δu_max (box); slack bounds σ ≥ 0 stay as built.
   for (int i = 0; i < nc_; ++i) {
     qp_.lb.segment(i * nu_, nu_) = d.move_min.col(i);
@@ -429,7 +482,11 @@ void IncrementalMpc::assemble_qp() {
     qp_.ug.segment(input_rows_begin_ + i * nu_, nu_) = d.input_max.col(i) - d.previous_input;
   }
   if (options_.hard_output_limits) {
-    qp_.G.block(output_rows_begin_, 0, np_ * ny_, nU) = Phi_;
+    for (int i = 0; i < nc_; ++i) {
+      for (int c = 0; c < nu_; ++c) {
+        qp_.G.col(i * nu_ + c).segment(output_rows_begin_, np_ * ny_) = Phi_.col(c * nc_ + i);
+      }
+    }
     for (int j = 0; j < np_; ++j) {
       const auto yf = Yfree_.segment(j * ny_, ny_);
       qp_.lg.segment(output_rows_begin_ + j * ny_, ny_) = d.output_min.col(j) - yf;
@@ -442,26 +499,41 @@ void IncrementalMpc::assemble_soft_rows() {
   const IncrementalMpcData& d = data_;
   const int nU = nc_ * nu_;
   // Soft rows: aᵀ(Y_free,j + Φ_j ΔU) + σ_g ≥ b  ⇔  aᵀΦ_j ΔU + σ_g ≥ b − aᵀY_free,j. Φ_j is
-  // zero right of the moves started by step j.
+  // zero right of the moves started by step j and outside the reaches of the outputs a reads.
   resize_soft_rows(d.soft_row_count);
-  double* row = soft_row_.data();  // summed contiguously, then stored into column-major G
+  double* row = soft_row_.data();  // in Φ's column order, summed contiguously
   for (int r = 0; r < soft_rows_in_qp_; ++r) {
     const int g_row = soft_rows_begin_ + r;
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
-      const int used = std::min(j + 1, nc_) * nu_;
-      for (int c = 0; c < used; ++c) row[c] = 0.0;
+      const int used = std::min(j + 1, nc_);
+      std::uint64_t reach = 0;
+      for (int k = 0; k < ny_; ++k) {
+        if (d.soft_normal(k, r) != 0.0) reach |= output_reach_[k];
+      }
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) != 0) std::fill_n(row + c * nc_, used, 0.0);
+      }
       double bound = d.soft_bound[r];
       for (int k = 0; k < ny_; ++k) {
         const double a = d.soft_normal(k, r);
         if (a == 0.0) continue;
         const double* phi = Phi_.row(j * ny_ + k).data();
-        for (int c = 0; c < used; ++c) row[c] += a * phi[c];
+        for (int c = 0; c < nu_; ++c) {
+          if (((output_reach_[k] >> c) & 1U) == 0) continue;
+          for (int i = 0; i < used; ++i) row[c * nc_ + i] += a * phi[c * nc_ + i];
+        }
         bound -= a * Yfree_[j * ny_ + k];
       }
-      for (int c = 0; c < used; ++c) qp_.G(g_row, c) = row[c];
-      for (int c = used; c < nz_; ++c) qp_.G(g_row, c) = 0.0;
-      qp_.G(g_row, nU + d.soft_group[r]) = 1.0;
+      // G is column-major: clear the row, then store the reached entries (move, then input).
+      double* g_out = &qp_.G(g_row, 0);
+      const Eigen::Index stride = qp_.G.outerStride();
+      for (int q = 0; q < nz_; ++q) g_out[q * stride] = 0.0;
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) == 0) continue;
+        for (int i = 0; i < used; ++i) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+      }
+      g_out[(nU + d.soft_group[r]) * stride] = 1.0;
       qp_.lg[g_row] = bound;
     } else {
       qp_.G.row(g_row).setZero();

@@ -54,12 +54,14 @@
 //    Φ_j = Φ_{j−1} + C Γ_j. Only the exact nonzeros of A_j and C are visited, and only the
 //    columns of the moves started by step j (Φ is block lower-triangular). The free response
 //    is the same pass on one vector, so F and Y_w are never formed.
-//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ. Output component k of every step is
-//    reached only by the inputs that the structural nonzeros of B, A and C connect to it (for
-//    the UAV: x, y by the speed and turn commands, z by the climb command); the sum runs per
-//    set of such components over those input columns only.
-//  - The move weights, the input-limit rows, the slack terms and the QP's layout are written
-//    once at construction.
+//  - The reach of a state or output (the inputs whose moves change it, from the nonzero
+//    patterns of B, A and C) bounds the columns a row of Γ or Φ can have: for the UAV, x and y
+//    are reached by the speed and turn commands, z by the climb command only. Row updates, the
+//    soft rows aᵀΦ_j and the cost sums skip the other inputs' columns.
+//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs per set of outputs with the
+//    same reach, over those inputs' columns only.
+//  - The input-limit rows, the slack terms and the QP's layout are written once at
+//    construction.
 // All matrices are preallocated at construction; after the
 // first solve a step allocates nothing unless the number of soft rows grows past a block of
 // kSoftRowBlock rows (or shrinks by more than one): the QP holds the soft rows in such blocks,
@@ -80,7 +82,7 @@ namespace ridgeline::mpc {
 /// Sizes of the plant and of the soft-constraint storage; fixed for the controller's life.
 struct IncrementalMpcDims {
   int state_dim = 0;          ///< n_s ≥ 1
-  int input_dim = 0;          ///< n_u ≥ 1
+  int input_dim = 0;          ///< 1 ≤ n_u ≤ 64
   int output_dim = 0;         ///< n_y ≥ 1
   int disturbance_dim = 0;    ///< n_d ≥ 0 (0: no measured disturbance)
   int soft_row_capacity = 0;  ///< largest number of soft rows in one step, ≥ 0
@@ -188,8 +190,10 @@ class IncrementalMpc {
   void reset() { solver_.reset(); }
 
   using RowMatX = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  /// The last build_prediction()'s prediction Y = Y_free + Φ ΔU: Φ is (Np·n_y)×(Nc·n_u), and
-  /// Y_free = F ξ_k + Y_w the outputs predicted with every move zero (inputs held).
+  /// The last build_prediction()'s prediction Y = Y_free + Φ ΔU: Φ is (Np·n_y)×(Nc·n_u) with
+  /// its columns ordered by input, then move (column c·Nc + i belongs to Δu_{k+i,c}; the QP's
+  /// ΔU is ordered by move, then input), and Y_free = F ξ_k + Y_w the outputs predicted with
+  /// every move zero (inputs held).
   const RowMatX& Phi() const { return Phi_; }
   const VecX& free_response() const { return Yfree_; }
   const qp::QpProblem& qp_problem() const { return qp_; }
@@ -229,16 +233,19 @@ class IncrementalMpc {
   std::vector<int> a_begin_;      // Np + 1 offsets into a_entries_
   std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
   int c_count_ = 0;
+  std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
 
-  RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); blocks above the diagonal stay zero
-  RowMatX Gamma_, Gnext_;  // n_s×(Nc·n_u): Γ_{j−1} and Γ_j
+  // Φ and Γ order their columns by input, then move (see build_prediction).
+  RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
+  RowMatX Gamma_, Gnext_;  // n_s×(Nc·n_u): Γ_{j−1} and Γ_j; valid inside each row's reach
   VecX Yfree_;             // Np·n_y
   VecX qdiag_, qsqrt_;     // Np·n_y: diagonal of Q̄ and its square root
   VecX err_;               // Q̄^{1/2}(R − Y_free), stacked
   VecX ds_, dsn_, y_, w_;  // n_s, n_s, n_y, n_s
 
-  // Structural reach (bit c: input c) of each state and output component, for the cost sums.
-  std::vector<std::uint64_t> state_reach_, next_reach_, output_reach_;
+  // Reach (bit c: input c) of each state and output component (collect_plant_nonzeros), and
+  // the output reach Φ was last cleared for.
+  std::vector<std::uint64_t> state_reach_, output_reach_, phi_reach_;
   // One group per distinct output reach (build_cost), handled one at a time: its input
   // columns S and its rows packed as W = [√q_r φ_r(S)]_r (|S|×rows) and e = [√q_r err_r]_r.
   std::vector<std::uint64_t> group_reach_;  // n_y: the reaches already handled
@@ -247,6 +254,8 @@ class IncrementalMpc {
   VecX group_e_;                            // Np·n_y: e
   MatX group_h_;                            // (Nc·n_u)²: W Wᵀ
   VecX group_f_;                            // Nc·n_u: W e
+  MatX Hp_;                                 // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower
+  VecX fp_;                                 // Nc·n_u: f_u in Φ's column order
   VecX soft_row_;                           // Nc·n_u: one soft row's aᵀΦ_j
 };
 

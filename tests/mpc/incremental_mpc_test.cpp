@@ -24,6 +24,17 @@ MatX random_matrix(std::mt19937& rng, int rows, int cols, double scale) {
   return m;
 }
 
+// Φ with its columns in the QP's order (move, then input); IncrementalMpc::Phi() orders them
+// by input, then move.
+MatX phi_by_move(const IncrementalMpc& mpc) {
+  const int nu = mpc.dims().input_dim, nc = mpc.options().control_horizon;
+  MatX out(mpc.Phi().rows(), nu * nc);
+  for (int i = 0; i < nc; ++i) {
+    for (int c = 0; c < nu; ++c) out.col(i * nu + c) = mpc.Phi().col(c * nc + i);
+  }
+  return out;
+}
+
 IncrementalMpcOptions basic_options(int ny, int nu, int np, int nc) {
   IncrementalMpcOptions o;
   o.prediction_horizon = np;
@@ -74,10 +85,11 @@ TEST(IncrementalMpcPrediction, MatricesMatchStepByStepAugmentedSimulationTimeVar
     xi = At * xi + Bt * du + wt;
     Y_sim.segment(j * ny, ny) = xi.tail(ny);
   }
-  const VecX Y_pred = mpc.free_response() + mpc.Phi() * dU;
+  const MatX Phi = phi_by_move(mpc);
+  const VecX Y_pred = mpc.free_response() + Phi * dU;
   EXPECT_LT((Y_pred - Y_sim).cwiseAbs().maxCoeff(), 1e-9);
   // Φ is block lower-triangular: a move cannot act on earlier outputs.
-  EXPECT_EQ(mpc.Phi().topRightCorner(ny, (nc - 1) * nu).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(Phi.topRightCorner(ny, (nc - 1) * nu).cwiseAbs().maxCoeff(), 0.0);
 }
 
 // For an LTI plant the incremental prediction must reproduce the ORIGINAL (absolute) plant
@@ -114,7 +126,7 @@ TEST(IncrementalMpcPrediction, LtiPredictionEqualsAbsolutePlantSimulation) {
     s = A * s + B * u + E * dist.segment(j + 1, 1);
     Y_sim.segment(j * ny, ny) = C * s;
   }
-  const VecX Y_pred = mpc.free_response() + mpc.Phi() * dU;
+  const VecX Y_pred = mpc.free_response() + phi_by_move(mpc) * dU;
   EXPECT_LT((Y_pred - Y_sim).cwiseAbs().maxCoeff(), 1e-9);
 }
 
@@ -258,7 +270,8 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnRandomDensePlants) {
 // The UAV's Euler Jacobians (eq. 4) along random nominal states: x, y are reached only by the
 // speed and turn commands, z only by the climb command, which the structured sums exploit. A
 // heading of exactly 0 makes sin ψ̄ an exact zero of A_j at some steps. A fourth output reads
-// a state no input reaches (its rows of Φ are zero) and must add nothing.
+// a state no input reaches (its rows of Φ are zero) and must add nothing. Φ's columns outside
+// a row's reach are never written, so a dense plant solved before must leave no trace.
 TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOutput) {
   std::mt19937 rng(42);
   const vehicle::VehicleParams p;
@@ -271,6 +284,14 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOu
   d.C = MatX::Zero(ny, ns);
   d.C.topLeftCorner(3, 3).setIdentity();
   d.C(3, ns - 1) = 1.0;  // an extra state integrating nothing the inputs move
+  // First a dense plant, whose Φ is nonzero everywhere: the sparser reaches after it must not
+  // keep its entries.
+  for (int j = 0; j < np; ++j) {
+    d.A[j] = MatX::Identity(ns, ns) + random_matrix(rng, ns, ns, 0.05);
+    d.B[j] = random_matrix(rng, ns, nu, 0.5);
+  }
+  randomize_step_and_solve(rng, mpc, np);
+  expect_condensing_equals_dense(mpc);
   std::uniform_real_distribution<double> heading(-kPi, kPi);
   for (int trial = 0; trial < 3; ++trial) {
     for (int j = 0; j < np; ++j) {
