@@ -1,5 +1,5 @@
-// `ridgeline bench mpc [--steps N] [--ipopt-every K] [--dump-qps FILE]`: measures the
-// tracker's full 50 Hz step and compares its QP solver with Ipopt on the same QPs, printing
+// `ridgeline bench mpc [--steps N] [--np NP] [--nc NC] [--ipopt-every K] [--dump-qps FILE]`:
+// measures the tracker's full 50 Hz step, with the medians of its parts, and compares its QP solver with Ipopt on the same QPs, printing
 // JSON; --dump-qps writes the QPs it built as an RLQP file.
 // `ridgeline bench mission [--scenario FILE] [--repeats N]`: plans once, flies the mission N
 // times and reports the real-time factor (median, in wall-clock and thread CPU time).
@@ -134,6 +134,10 @@ void register_bench_command(CLI::App& app) {
   CLI::App* mpc = bench->add_subcommand(
       "mpc", "The MPC step (Np 40, Nc 10, 3 threats, 2 neighbours, terrain) and our QP vs Ipopt");
   mpc->add_option("--steps", options->steps, "closed-loop control steps")->capture_default_str();
+  mpc->add_option("--np", options->prediction_horizon, "prediction horizon Np (steps of 0.1 s)")
+      ->capture_default_str();
+  mpc->add_option("--nc", options->control_horizon, "control horizon Nc (moves)")
+      ->capture_default_str();
   mpc->add_option("--ipopt-every", options->ipopt_every, "solve every n-th QP with Ipopt too")
       ->capture_default_str();
   mpc->add_option("--dump-qps", options->dump_qps_path,
@@ -141,6 +145,9 @@ void register_bench_command(CLI::App& app) {
   mpc->callback([options] {
     if (options->steps < 1) throw InputError("--steps", "must be at least 1");
     if (options->ipopt_every < 0) throw InputError("--ipopt-every", "must not be negative");
+    if (options->prediction_horizon < 1) throw InputError("--np", "must be at least 1");
+    if (options->control_horizon < 1 || options->control_horizon > options->prediction_horizon)
+      throw InputError("--nc", "must be between 1 and --np");
     std::cout << benchmarks::run_mpc_benchmark(*options).to_json().dump(2) << '\n';
   });
 

@@ -25,9 +25,18 @@ double thread_cpu_us() { return thread_cpu_time_s() * 1e6; }
 
 nlohmann::json MpcBenchmarkReport::to_json() const {
   return {{"steps", steps},
+          {"prediction_horizon", prediction_horizon},
+          {"control_horizon", control_horizon},
           {"mpc_step_us", mission::to_json(step_us)},
           {"mpc_step_cpu_us", mission::to_json(step_cpu_us)},
           {"qp_solve_us", mission::to_json(qp_us)},
+          {"step_part_medians_us",
+           {{"linearization", parts.linearization_us},
+            {"condensing", parts.condensing_us},
+            {"soft_rows", parts.soft_rows_us},
+            {"qp", parts.qp_us},
+            {"other", parts.other_us}}},
+          {"step_cpu_over_qp_median", step_over_qp},
           {"qp_iterations", mission::to_json(qp_iterations)},
           {"qp_method", qp_method},
           {"qp_fallbacks", qp_fallbacks},
@@ -43,7 +52,9 @@ nlohmann::json MpcBenchmarkReport::to_json() const {
 }
 
 MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
-  mpc::UavTrackerOptions tracker_options;  // Np 40 × 0.1 s, Nc 10, 50 Hz
+  mpc::UavTrackerOptions tracker_options;  // Np 40 × 0.1 s, Nc 10, 50 Hz by default
+  tracker_options.prediction_horizon = options.prediction_horizon;
+  tracker_options.control_horizon = options.control_horizon;
   // The benchmark's own workload, unchanged since it was first measured: r_safe 5 m (the
   // missions' default is 10 m); d_safe and h_safe at their defaults.
   world::SafetyLimits limits;
@@ -96,6 +107,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   std::optional<qp::QpInstanceWriter> dump;
   if (!options.dump_qps_path.empty()) dump.emplace(options.dump_qps_path);
   std::vector<double> step_us, cpu_us, qp_us, iterations, ours_compared, ipopt_us;
+  std::vector<double> linearization_us, condensing_us, soft_rows_us, part_qp_us, other_us;
   const int truth_substeps = 4;  // 200 Hz truth
   const double dt_truth = tracker_options.control_period_s / truth_substeps;
   double t = 0.0;
@@ -109,6 +121,11 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
             .count());
     cpu_us.push_back(thread_cpu_us() - cpu_start);
     qp_us.push_back(r.qp_time_us);
+    linearization_us.push_back(r.parts.linearization_us);
+    condensing_us.push_back(r.parts.condensing_us);
+    soft_rows_us.push_back(r.parts.soft_rows_us);
+    part_qp_us.push_back(r.parts.qp_us);
+    other_us.push_back(r.parts.other_us);
     iterations.push_back(r.qp_iterations);
     rows += r.soft_rows[0] + r.soft_rows[1] + r.soft_rows[2];
     report.max_slack_m = std::max(report.max_slack_m, r.max_slack_m());
@@ -136,6 +153,8 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
     t += tracker_options.control_period_s;
   }
   report.steps = options.steps;
+  report.prediction_horizon = options.prediction_horizon;
+  report.control_horizon = options.control_horizon;
   if (dump) {
     dump->close();
     report.qps_dumped = dump->count();
@@ -144,6 +163,12 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   report.step_cpu_us = mission::percentiles(cpu_us);
   report.qp_us = mission::percentiles(qp_us);
   report.qp_iterations = mission::percentiles(iterations);
+  report.parts.linearization_us = mission::percentiles(linearization_us).median;
+  report.parts.condensing_us = mission::percentiles(condensing_us).median;
+  report.parts.soft_rows_us = mission::percentiles(soft_rows_us).median;
+  report.parts.qp_us = mission::percentiles(part_qp_us).median;
+  report.parts.other_us = mission::percentiles(other_us).median;
+  if (report.qp_us.median > 0.0) report.step_over_qp = report.step_cpu_us.median / report.qp_us.median;
   report.soft_rows_mean = options.steps > 0 ? rows / options.steps : 0.0;
   if (report.ipopt_compared > 0) {
     report.ipopt_qp_us_median = mission::percentiles(ipopt_us).median;

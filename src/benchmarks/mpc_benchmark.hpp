@@ -5,7 +5,9 @@
 // the circle, two neighbours flying it 25 m ahead and behind at a 15 m offset, and hills under
 // it within the terrain rows' activation distance.
 //
-// Each step is timed whole (linearize, build, solve). Every `ipopt_every`-th QP is also
+// Each step is timed whole (linearize, build, solve) and in its parts (UavTrackerStepParts:
+// linearization, condensing, soft rows, QP, other). `prediction_horizon`/`control_horizon`
+// change Np and Nc (the soft rows scale with Np). Every `ipopt_every`-th QP is also
 // solved by Ipopt, outside the timed region, for the speed ratio and an accuracy check.
 #pragma once
 
@@ -18,17 +20,32 @@ namespace ridgeline::benchmarks {
 
 struct MpcBenchmarkOptions {
   int steps = 3000;      ///< control steps (60 s at 50 Hz)
+  int prediction_horizon = 40;  ///< Np
+  int control_horizon = 10;     ///< Nc
   int ipopt_every = 10;  ///< compare with Ipopt on every n-th QP (0: never)
   /// When set, every step's QP is appended to this RLQP file (outside the timed region), for
   /// `ridgeline bench qp --instances`.
   std::string dump_qps_path;
 };
 
+/// Medians of the step's parts (UavTrackerStepParts), wall clock, µs.
+struct MpcStepPartMedians {
+  double linearization_us = 0.0;
+  double condensing_us = 0.0;
+  double soft_rows_us = 0.0;
+  double qp_us = 0.0;
+  double other_us = 0.0;
+};
+
 struct MpcBenchmarkReport {
   int steps = 0;
+  int prediction_horizon = 0;
+  int control_horizon = 0;
   mission::Percentiles step_us;      ///< whole MPC step, wall clock
   mission::Percentiles step_cpu_us;  ///< the same in thread CPU time (robust to preemption)
   mission::Percentiles qp_us;        ///< our QP solve inside the step
+  MpcStepPartMedians parts;
+  double step_over_qp = 0.0;  ///< median step (CPU) / median QP solve
   mission::Percentiles qp_iterations;
   std::string qp_method;     ///< the tracker's QpSettings::method
   int qp_fallbacks = 0;      ///< active-set solves the interior point had to answer

@@ -53,7 +53,8 @@ bool IncrementalMpcData::add_soft_row(int step, const Eigen::Ref<const VecX>& a,
 IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const IncrementalMpcOptions& options)
     : dims_(dims), options_(options), solver_(options.qp_settings) {
   require(dims.state_dim >= 1, "dims.state_dim", "must be >= 1");
-  require(dims.input_dim >= 1, "dims.input_dim", "must be >= 1");
+  require(dims.input_dim >= 1 && dims.input_dim <= 64, "dims.input_dim",
+          "must be between 1 and 64 (an input set is a 64-bit mask)");
   require(dims.output_dim >= 1, "dims.output_dim", "must be >= 1");
   require(dims.disturbance_dim >= 0, "dims.disturbance_dim", "must be >= 0");
   require(dims.soft_row_capacity >= 0, "dims.soft_row_capacity", "must be >= 0");
@@ -104,7 +105,6 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   nu_ = dims.input_dim;
   ny_ = dims.output_dim;
   nd_ = dims.disturbance_dim;
-  nxi_ = ns_ + ny_;
   np_ = options.prediction_horizon;
   nc_ = options.control_horizon;
   ng_ = dims.slack_groups;
@@ -139,11 +139,14 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   data_.soft_normal = MatX::Zero(ny_, cap);
   data_.soft_bound = VecX::Zero(cap);
 
-  F_ = MatX::Zero(np_ * ny_, nxi_);
-  Phi_ = MatX::Zero(np_ * ny_, nc_ * nu_);
-  Yw_ = VecX::Zero(np_ * ny_);
+  a_entries_.resize(static_cast<std::size_t>(np_) * ns_ * ns_);
+  a_begin_.assign(np_ + 1, 0);
+  c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
+  a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
+  Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
+  Gamma_ = RowMatX::Zero(ns_, nc_ * nu_);
+  Gnext_ = RowMatX::Zero(ns_, nc_ * nu_);
   Yfree_ = VecX::Zero(np_ * ny_);
-  SPhi_ = MatX::Zero(np_ * ny_, nc_ * nu_);
   err_ = VecX::Zero(np_ * ny_);
   qdiag_ = VecX::Zero(np_ * ny_);
   for (int j = 0; j < np_; ++j) {
@@ -152,14 +155,22 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
         terminal ? options.terminal_output_weight : options.output_weight;
   }
   qsqrt_ = qdiag_.cwiseSqrt();  // weights were validated ≥ 0
-  y_ = VecX::Zero(ny_);
-  tmp_ = VecX::Zero(ns_);
-  P_ = RowMatX::Zero(ns_, nxi_ + 1 + nc_ * nu_);
-  T_ = RowMatX::Zero(ns_, nxi_ + 1 + nc_ * nu_);
-  Y_ = RowMatX::Zero(ny_, nxi_ + 1 + nc_ * nu_);
   ds_ = VecX::Zero(ns_);
   dsn_ = VecX::Zero(ns_);
+  y_ = VecX::Zero(ny_);
   w_ = VecX::Zero(ns_);
+  state_reach_.assign(ns_, 0);
+  output_reach_.assign(ny_, 0);
+  phi_reach_.assign(ny_, 0);
+  group_reach_.assign(ny_, 0);
+  group_columns_.assign(nc_ * nu_, 0);
+  group_w_ = MatX::Zero(nc_ * nu_, np_ * ny_);
+  group_e_ = VecX::Zero(np_ * ny_);
+  group_h_ = MatX::Zero(nc_ * nu_, nc_ * nu_);
+  group_f_ = VecX::Zero(nc_ * nu_);
+  Hp_ = MatX::Zero(nc_ * nu_, nc_ * nu_);
+  fp_ = VecX::Zero(nc_ * nu_);
+  soft_row_ = VecX::Zero(nc_ * nu_);
 
   // QP layout: rows [input limits (Nc·n_u) | hard output limits (Np·n_y, optional) | soft].
   input_rows_begin_ = 0;
@@ -237,57 +248,209 @@ std::string_view IncrementalMpc::check_data() const {
   return {};
 }
 
-void IncrementalMpc::build_prediction() {
+void IncrementalMpc::collect_plant_nonzeros() {
+  // Plant matrices such as I + Δt·A_c are mostly zeros (13 of 49 entries for the UAV), and
+  // the forward pass and the solution's simulation both multiply by every A_j: listing the
+  // nonzeros once lets both skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
-  // One propagation of the augmented system (eq. 7) yields F, Y_w and Φ together. Its columns
-  // are [F: n_ξ | Y_w: 1 | Φ: Nc·n_u]; P holds their Δs part, Y their y part:
-  //   P ← A_j P (+ w_j in the Y_w column, + B_j in the column block of move j),  Y ← Y + C P.
-  // F starts from ξ = I, Y_w and Φ from zero; a move's block starts at its own step.
-  // P and Y are row-major and the products skip the exact zeros of A_j and C: a row update is
-  // then one contiguous AXPY over all columns, and plant matrices such as I + Δt·A_c are mostly
-  // zeros (13 of 49 entries for the UAV), which a dense small-matrix product would not exploit.
-  const int wcol = nxi_;
-  const int ucol0 = nxi_ + 1;
-  RowMatX* P = &P_;
-  RowMatX* T = &T_;
-  P->setZero();
-  Y_.setZero();
-  P->leftCols(ns_).setIdentity();
-  Y_.block(0, ns_, ny_, ny_).setIdentity();
+  std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
+  int n = 0;
   for (int j = 0; j < np_; ++j) {
-    const int active = ucol0 + std::min(j, nc_) * nu_;  // F, Y_w and the started moves
-    T->leftCols(active).setZero();
+    a_begin_[j] = n;
     const MatX& A = d.A[j];
     for (int l = 0; l < ns_; ++l) {
       for (int k = 0; k < ns_; ++k) {
-        const double a = A(k, l);
-        if (a != 0.0) T->row(k).head(active) += a * P->row(l).head(active);
+        if (A(k, l) != 0.0) {
+          a_entries_[n++] = Entry{k, l, A(k, l)};
+          a_pattern_[k * ns_ + l] = 1;
+        }
       }
     }
+  }
+  a_begin_[np_] = n;
+  c_count_ = 0;
+  for (int l = 0; l < ns_; ++l) {
+    for (int k = 0; k < ny_; ++k) {
+      if (d.C(k, l) != 0.0) c_entries_[c_count_++] = Entry{k, l, d.C(k, l)};
+    }
+  }
+  // The reach of each state (bit c: some move of input c changes it at some step): the
+  // inputs of its B rows, closed over the union pattern of the A_j. Outside its reach a row of
+  // Γ is zero at every step, and so is an output's row of Φ outside the union of the reaches
+  // its C row reads.
+  std::fill(state_reach_.begin(), state_reach_.end(), 0);
+  for (int j = 0; j < nc_; ++j) {
+    for (int k = 0; k < ns_; ++k) {
+      for (int c = 0; c < nu_; ++c) {
+        if (d.B[j](k, c) != 0.0) state_reach_[k] |= std::uint64_t{1} << c;
+      }
+    }
+  }
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int k = 0; k < ns_; ++k) {
+      for (int l = 0; l < ns_; ++l) {
+        if (a_pattern_[k * ns_ + l] != 0 && (state_reach_[l] & ~state_reach_[k]) != 0) {
+          state_reach_[k] |= state_reach_[l];
+          changed = true;
+        }
+      }
+    }
+  }
+  std::fill(output_reach_.begin(), output_reach_.end(), 0);
+  for (int e = 0; e < c_count_; ++e) {
+    output_reach_[c_entries_[e].row] |= state_reach_[c_entries_[e].col];
+  }
+}
+
+void IncrementalMpc::build_prediction() {
+  const IncrementalMpcData& d = data_;
+  collect_plant_nonzeros();
+  // One forward pass (eq. 7–9) over the stage matrices. Γ holds ∂Δs_{j+1}/∂ΔU; the free
+  // increment ds and output y are the same recursion with every move zero:
+  //   Γ_j = A_j Γ_{j−1} + [B_j in the columns of move j],   Φ_j = Φ_{j−1} + C Γ_j,
+  //   ds_j = A_j ds_{j−1} + w_j,                              y_j = y_{j−1} + C ds_j.
+  // Γ and Φ are row-major with the columns ordered by input, then move (column c·Nc + i is
+  // Δu_{k+i,c}): a row's part for one input is then contiguous, the moves started so far are
+  // its first entries, and a row update touches only the inputs in the row's reach.
+  if (output_reach_ != phi_reach_) {
+    Phi_.setZero();  // entries outside a reach are never written: clear those of an old one
+    phi_reach_ = output_reach_;
+  }
+  ds_ = d.delta_state;
+  y_ = d.output;
+  RowMatX* G = &Gamma_;
+  RowMatX* Gn = &Gnext_;
+  for (int j = 0; j < np_; ++j) {
+    const int active = std::min(j, nc_);  // moves started before step j (per input)
+    const int used = std::min(j + 1, nc_);  // ... and by step j
     w_ = d.state_offset.col(j);
     if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
-    T->col(wcol) += w_;
-    int used = active;
-    if (j < nc_) {
-      T->middleCols(ucol0 + j * nu_, nu_) = d.B[j];
-      used += nu_;
-    }
-    for (int l = 0; l < ns_; ++l) {
-      for (int k = 0; k < ny_; ++k) {
-        const double c = d.C(k, l);
-        if (c != 0.0) Y_.row(k).head(used) += c * T->row(l).head(used);
+    dsn_ = w_;
+    for (int k = 0; k < ns_; ++k) {
+      for (int c = 0; c < nu_; ++c) {
+        if (((state_reach_[k] >> c) & 1U) == 0) continue;
+        std::fill_n(Gn->row(k).data() + c * nc_, active, 0.0);
       }
     }
-    std::swap(P, T);
-    F_.middleRows(j * ny_, ny_) = Y_.leftCols(nxi_);
-    Yw_.segment(j * ny_, ny_) = Y_.col(wcol);
-    Phi_.block(j * ny_, 0, ny_, used - ucol0) = Y_.middleCols(ucol0, used - ucol0);
+    for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
+      const Entry a = a_entries_[e];  // a copy: stores through dst cannot change it
+      dsn_[a.row] += a.value * ds_[a.col];
+      const std::uint64_t reach = state_reach_[a.col];
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) == 0) continue;
+        double* dst = Gn->row(a.row).data() + c * nc_;
+        const double* src = G->row(a.col).data() + c * nc_;
+        for (int i = 0; i < active; ++i) dst[i] += a.value * src[i];
+      }
+    }
+    if (j < nc_) {
+      const MatX& B = d.B[j];
+      for (int k = 0; k < ns_; ++k) {
+        for (int c = 0; c < nu_; ++c) {
+          if (((state_reach_[k] >> c) & 1U) != 0) (*Gn)(k, c * nc_ + j) = B(k, c);
+        }
+      }
+    }
+    std::swap(G, Gn);
+    std::swap(ds_, dsn_);
+    for (int k = 0; k < ny_; ++k) {
+      double* row = Phi_.row(j * ny_ + k).data();
+      for (int c = 0; c < nu_; ++c) {
+        if (((output_reach_[k] >> c) & 1U) == 0) continue;
+        if (j > 0) {
+          std::copy_n(Phi_.row((j - 1) * ny_ + k).data() + c * nc_, used, row + c * nc_);
+        } else {
+          std::fill_n(row + c * nc_, used, 0.0);
+        }
+      }
+    }
+    for (int e = 0; e < c_count_; ++e) {
+      const Entry cz = c_entries_[e];
+      y_[cz.row] += cz.value * ds_[cz.col];
+      const std::uint64_t reach = state_reach_[cz.col];
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) == 0) continue;
+        double* dst = Phi_.row(j * ny_ + cz.row).data() + c * nc_;
+        const double* src = G->row(cz.col).data() + c * nc_;
+        for (int i = 0; i < used; ++i) dst[i] += cz.value * src[i];
+      }
+    }
+    Yfree_.segment(j * ny_, ny_) = y_;
   }
+}
 
-  // Free response Y_free = F ξ_k + Y_w, ξ_k = [Δs_k; y_k].
-  Yfree_.noalias() = F_.leftCols(ns_) * d.delta_state;
-  Yfree_.noalias() += F_.rightCols(ny_) * d.output;
-  Yfree_ += Yw_;
+void IncrementalMpc::build_cost() {
+  const IncrementalMpcData& d = data_;
+  const int nU = nc_ * nu_;
+  // Cost (eq. 10): H_uu = 2(ΦᵀQ̄Φ + R̄), f_u = −2ΦᵀQ̄(R − Y_free). Q̄ is diagonal, so
+  // ΦᵀQ̄Φ = Σ_r (√q_r φ_r)(√q_r φ_r)ᵀ over the rows r of Φ. Output components with the same
+  // reach form a group whose rows are nonzero only in the columns S of the inputs it
+  // reaches; its part is a rank update W Wᵀ of the packed |S|×rows matrix W, added into
+  // H(S, S). For the UAV that is 80 rows × 20 columns (x, y) and 40 × 10 (z) instead of
+  // 120 × 30: a third of the flops of the dense product. Sums run in Φ's column order and are
+  // moved to the QP's (move, then input) at the end.
+  Hp_.setZero();
+  fp_.setZero();
+  for (int j = 0; j < np_; ++j) {
+    for (int k = 0; k < ny_; ++k) {
+      const int r = j * ny_ + k;
+      err_[r] = qsqrt_[r] * (d.reference(k, j) - Yfree_[r]);
+    }
+  }
+  int groups = 0;
+  for (int k = 0; k < ny_; ++k) {
+    const std::uint64_t reach = output_reach_[k];
+    if (reach == 0) continue;  // an output no input moves: its rows of Φ are zero
+    if (std::find(group_reach_.begin(), group_reach_.begin() + groups, reach) !=
+        group_reach_.begin() + groups) {
+      continue;  // packed with the first component of the same reach
+    }
+    group_reach_[groups++] = reach;
+    int* cols = group_columns_.data();
+    int size = 0;
+    for (int c = 0; c < nu_; ++c) {
+      if (((reach >> c) & 1U) == 0) continue;
+      for (int i = 0; i < nc_; ++i) cols[size++] = c * nc_ + i;
+    }
+    int rows = 0;
+    for (int j = 0; j < np_; ++j) {
+      for (int kk = k; kk < ny_; ++kk) {
+        if (output_reach_[kk] != reach) continue;
+        const int r = j * ny_ + kk;
+        const double* phi = Phi_.row(r).data();
+        double* w = group_w_.col(rows).data();
+        for (int a = 0; a < size; ++a) w[a] = qsqrt_[r] * phi[cols[a]];
+        group_e_[rows++] = err_[r];
+      }
+    }
+    const auto W = group_w_.topLeftCorner(size, rows);
+    auto Hg = group_h_.topLeftCorner(size, size);
+    Hg.setZero();
+    Hg.selfadjointView<Eigen::Lower>().rankUpdate(W, 2.0);
+    auto fg = group_f_.head(size);
+    fg.noalias() = W * group_e_.head(rows);
+    for (int b = 0; b < size; ++b) {
+      fp_[cols[b]] -= 2.0 * fg[b];
+      for (int a = b; a < size; ++a) Hp_(cols[a], cols[b]) += Hg(a, b);  // cols ascend: lower
+    }
+  }
+  auto Huu = qp_.H.topLeftCorner(nU, nU);
+  for (int cb = 0; cb < nu_; ++cb) {
+    for (int ib = 0; ib < nc_; ++ib) {
+      const int b = cb * nc_ + ib, qb = ib * nu_ + cb;
+      qp_.f[qb] = fp_[b];
+      for (int ca = 0; ca < nu_; ++ca) {
+        for (int ia = 0; ia < nc_; ++ia) {
+          const int a = ca * nc_ + ia;
+          Huu(ia * nu_ + ca, qb) = a >= b ? Hp_(a, b) : Hp_(b, a);
+        }
+      }
+    }
+  }
+  for (int i = 0; i < nc_; ++i) {
+    for (int c = 0; c < nu_; ++c) Huu(i * nu_ + c, i * nu_ + c) += 2.0 * options_.move_weight[c];
+  }
 }
 
 void IncrementalMpc::resize_soft_rows(int needed) {
@@ -308,27 +471,6 @@ void IncrementalMpc::resize_soft_rows(int needed) {
 
 void IncrementalMpc::assemble_qp() {
   const IncrementalMpcData& d = data_;
-  const int nU = nc_ * nu_;
-
-  // Cost (eq. 10): H_uu = 2(ΦᵀQ̄Φ + R̄), f_u = −2ΦᵀQ̄(R − Y_free).
-  // With S = Q̄^{1/2} (Q̄ ≥ 0), ΦᵀQ̄Φ = (SΦ)ᵀ(SΦ): a symmetric rank update costs half the
-  // flops of the general product, and this product is the largest dense one in the step.
-  SPhi_.noalias() = qsqrt_.asDiagonal() * Phi_;
-  auto Huu = qp_.H.topLeftCorner(nU, nU);
-  Huu.setZero();
-  Huu.selfadjointView<Eigen::Lower>().rankUpdate(SPhi_.transpose(), 2.0);
-  for (int c = 1; c < nU; ++c) {
-    for (int r = 0; r < c; ++r) Huu(r, c) = Huu(c, r);
-  }
-  for (int i = 0; i < nc_; ++i) {
-    for (int c = 0; c < nu_; ++c) Huu(i * nu_ + c, i * nu_ + c) += 2.0 * options_.move_weight[c];
-  }
-  for (int j = 0; j < np_; ++j) {
-    err_.segment(j * ny_, ny_) = d.reference.col(j) - Yfree_.segment(j * ny_, ny_);
-  }
-  err_.array() *= qsqrt_.array();
-  qp_.f.head(nU).noalias() = -2.0 * SPhi_.transpose() * err_;
-
   // Move bounds Δu_min ≤ Δu ≤ Δu_max (box); slack bounds σ ≥ 0 stay as built.
   for (int i = 0; i < nc_; ++i) {
     qp_.lb.segment(i * nu_, nu_) = d.move_min.col(i);
@@ -340,29 +482,64 @@ void IncrementalMpc::assemble_qp() {
     qp_.ug.segment(input_rows_begin_ + i * nu_, nu_) = d.input_max.col(i) - d.previous_input;
   }
   if (options_.hard_output_limits) {
-    qp_.G.block(output_rows_begin_, 0, np_ * ny_, nU) = Phi_;
+    for (int i = 0; i < nc_; ++i) {
+      for (int c = 0; c < nu_; ++c) {
+        qp_.G.col(i * nu_ + c).segment(output_rows_begin_, np_ * ny_) = Phi_.col(c * nc_ + i);
+      }
+    }
     for (int j = 0; j < np_; ++j) {
       const auto yf = Yfree_.segment(j * ny_, ny_);
       qp_.lg.segment(output_rows_begin_ + j * ny_, ny_) = d.output_min.col(j) - yf;
       qp_.ug.segment(output_rows_begin_ + j * ny_, ny_) = d.output_max.col(j) - yf;
     }
   }
-  // Soft rows: aᵀ(Y_free,j + Φ_j ΔU) + σ_g ≥ b  ⇔  aᵀΦ_j ΔU + σ_g ≥ b − aᵀY_free,j.
+}
+
+void IncrementalMpc::assemble_soft_rows() {
+  const IncrementalMpcData& d = data_;
+  const int nU = nc_ * nu_;
+  // Soft rows: aᵀ(Y_free,j + Φ_j ΔU) + σ_g ≥ b  ⇔  aᵀΦ_j ΔU + σ_g ≥ b − aᵀY_free,j. Φ_j is
+  // zero right of the moves started by step j and outside the reaches of the outputs a reads.
   resize_soft_rows(d.soft_row_count);
+  double* row = soft_row_.data();  // in Φ's column order, summed contiguously
   for (int r = 0; r < soft_rows_in_qp_; ++r) {
-    auto row = qp_.G.row(soft_rows_begin_ + r);
+    const int g_row = soft_rows_begin_ + r;
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
-      const auto a = d.soft_normal.col(r);
-      row.head(nU).noalias() = a.transpose().lazyProduct(Phi_.middleRows(j * ny_, ny_));
-      row.tail(ng_).setZero();
-      row[nU + d.soft_group[r]] = 1.0;
-      qp_.lg[soft_rows_begin_ + r] = d.soft_bound[r] - a.dot(Yfree_.segment(j * ny_, ny_));
+      const int used = std::min(j + 1, nc_);
+      std::uint64_t reach = 0;
+      for (int k = 0; k < ny_; ++k) {
+        if (d.soft_normal(k, r) != 0.0) reach |= output_reach_[k];
+      }
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) != 0) std::fill_n(row + c * nc_, used, 0.0);
+      }
+      double bound = d.soft_bound[r];
+      for (int k = 0; k < ny_; ++k) {
+        const double a = d.soft_normal(k, r);
+        if (a == 0.0) continue;
+        const double* phi = Phi_.row(j * ny_ + k).data();
+        for (int c = 0; c < nu_; ++c) {
+          if (((output_reach_[k] >> c) & 1U) == 0) continue;
+          for (int i = 0; i < used; ++i) row[c * nc_ + i] += a * phi[c * nc_ + i];
+        }
+        bound -= a * Yfree_[j * ny_ + k];
+      }
+      // G is column-major: clear the row, then store the reached entries (move, then input).
+      double* g_out = &qp_.G(g_row, 0);
+      const Eigen::Index stride = qp_.G.outerStride();
+      for (int q = 0; q < nz_; ++q) g_out[q * stride] = 0.0;
+      for (int c = 0; c < nu_; ++c) {
+        if (((reach >> c) & 1U) == 0) continue;
+        for (int i = 0; i < used; ++i) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+      }
+      g_out[(nU + d.soft_group[r]) * stride] = 1.0;
+      qp_.lg[g_row] = bound;
     } else {
-      row.setZero();
-      qp_.lg[soft_rows_begin_ + r] = -qp::kInfinity;
+      qp_.G.row(g_row).setZero();
+      qp_.lg[g_row] = -qp::kInfinity;
     }
-    qp_.ug[soft_rows_begin_ + r] = qp::kInfinity;
+    qp_.ug[g_row] = qp::kInfinity;
   }
 }
 
@@ -384,27 +561,38 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   result_.first_input = d.previous_input + result_.first_move;
   result_.max_slack = ng_ > 0 ? result_.slack.maxCoeff() : 0.0;
 
-  // Predicted outputs and states under ΔU: step the augmented system (eq. 7) directly.
+  // Predicted outputs and states under ΔU: step the augmented system (eq. 7) directly, over
+  // the nonzeros of A_j listed by build_prediction().
   ds_ = d.delta_state;
-  VecX& s = dsn_;  // running absolute state
-  s = d.state;
-  VecX& y = y_;
-  y = d.output;
+  double* s = result_.predicted_states.data();
+  double* y = result_.predicted_outputs.data();
+  const double* s_prev = d.state.data();
+  const double* y_prev = d.output.data();
   double cost = 0.0;
   for (int j = 0; j < np_; ++j) {
     w_ = d.state_offset.col(j);
     if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
     if (j < nc_) w_.noalias() += d.B[j].lazyProduct(result_.moves.segment(j * nu_, nu_));
-    tmp_.noalias() = d.A[j].lazyProduct(ds_);
-    ds_ = tmp_ + w_;
-    s += ds_;
-    y.noalias() += d.C.lazyProduct(ds_);
-    result_.predicted_states.col(j) = s;
-    result_.predicted_outputs.col(j) = y;
-    for (int c = 0; c < ny_; ++c) {
-      const double e = d.reference(c, j) - y[c];
-      cost += qdiag_[j * ny_ + c] * e * e;
+    dsn_ = w_;
+    for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
+      const Entry& a = a_entries_[e];
+      dsn_[a.row] += a.value * ds_[a.col];
     }
+    std::swap(ds_, dsn_);
+    for (int k = 0; k < ns_; ++k) s[k] = s_prev[k] + ds_[k];
+    for (int k = 0; k < ny_; ++k) y[k] = y_prev[k];
+    for (int e = 0; e < c_count_; ++e) {
+      const Entry& cz = c_entries_[e];
+      y[cz.row] += cz.value * ds_[cz.col];
+    }
+    for (int k = 0; k < ny_; ++k) {
+      const double e = d.reference(k, j) - y[k];
+      cost += qdiag_[j * ny_ + k] * e * e;
+    }
+    s_prev = s;
+    y_prev = y;
+    s += ns_;
+    y += ny_;
   }
   for (int i = 0; i < nc_; ++i) {
     for (int c = 0; c < nu_; ++c) {
@@ -418,7 +606,6 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
 }
 
 const IncrementalMpcResult& IncrementalMpc::solve() {
-  const auto start = Clock::now();
   result_.invalid_field = check_data();
   if (!result_.invalid_field.empty()) {
     result_.qp_status = qp::QpStatus::kInvalidInput;
@@ -430,12 +617,18 @@ const IncrementalMpcResult& IncrementalMpc::solve() {
     result_.max_slack = 0.0;
     result_.qp_iterations = 0;
     result_.qp_time_us = 0.0;
-    result_.build_time_us = 0.0;
+    result_.condensing_time_us = 0.0;
+    result_.soft_rows_time_us = 0.0;
     return result_;
   }
+  auto start = Clock::now();
   build_prediction();
+  build_cost();
+  result_.condensing_time_us = elapsed_us(start);
   assemble_qp();
-  result_.build_time_us = elapsed_us(start);
+  start = Clock::now();
+  assemble_soft_rows();
+  result_.soft_rows_time_us = elapsed_us(start);
   const qp::QpResult& qp_result = solver_.solve(qp_);
   result_.qp_status = qp_result.status;
   result_.qp_iterations = qp_result.iterations;

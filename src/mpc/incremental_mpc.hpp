@@ -46,7 +46,23 @@
 // is always feasible.
 //
 // QP in z = [ΔU; σ] (n = Nc·n_u + slack groups): H = 2·blkdiag(ΦᵀQ̄Φ + R̄, ρ₂ I),
-// f = [−2 ΦᵀQ̄(R − Fξ − Y_w); ρ₁ 1]. All matrices are preallocated at construction; after the
+// f = [−2 ΦᵀQ̄(R − Y_free); ρ₁ 1], Y_free = F ξ_k + Y_w the free response (moves zero).
+//
+// Condensing exploits the structure instead of multiplying dense stacked matrices:
+//  - Φ is built block by block by one forward pass over the stage matrices: Γ_j = ∂Δs_{j+1}/∂ΔU
+//    obeys Γ_j = A_j Γ_{j−1} (+ B_j in the columns of move j), and the output rows are
+//    Φ_j = Φ_{j−1} + C Γ_j. Only the exact nonzeros of A_j and C are visited, and only the
+//    columns of the moves started by step j (Φ is block lower-triangular). The free response
+//    is the same pass on one vector, so F and Y_w are never formed.
+//  - The reach of a state or output (the inputs whose moves change it, from the nonzero
+//    patterns of B, A and C) bounds the columns a row of Γ or Φ can have: for the UAV, x and y
+//    are reached by the speed and turn commands, z by the climb command only. Row updates, the
+//    soft rows aᵀΦ_j and the cost sums skip the other inputs' columns.
+//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs per set of outputs with the
+//    same reach, over those inputs' columns only.
+//  - The input-limit rows, the slack terms and the QP's layout are written once at
+//    construction.
+// All matrices are preallocated at construction; after the
 // first solve a step allocates nothing unless the number of soft rows grows past a block of
 // kSoftRowBlock rows (or shrinks by more than one): the QP holds the soft rows in such blocks,
 // padded with rows whose sides are both infinite, so its size — and the solver's warm start —
@@ -54,6 +70,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <string_view>
 #include <vector>
 
@@ -65,7 +82,7 @@ namespace ridgeline::mpc {
 /// Sizes of the plant and of the soft-constraint storage; fixed for the controller's life.
 struct IncrementalMpcDims {
   int state_dim = 0;          ///< n_s ≥ 1
-  int input_dim = 0;          ///< n_u ≥ 1
+  int input_dim = 0;          ///< 1 ≤ n_u ≤ 64
   int output_dim = 0;         ///< n_y ≥ 1
   int disturbance_dim = 0;    ///< n_d ≥ 0 (0: no measured disturbance)
   int soft_row_capacity = 0;  ///< largest number of soft rows in one step, ≥ 0
@@ -144,8 +161,9 @@ struct IncrementalMpcResult {
   double max_slack = 0.0;  ///< max_g σ_g
   double cost = 0.0;       ///< J of eq. 10 plus the slack penalty, at the solution
   int qp_iterations = 0;
-  double qp_time_us = 0.0;
-  double build_time_us = 0.0;  ///< prediction matrices and QP assembly
+  double qp_time_us = 0.0;          ///< the QP solve (QpResult::solve_time_us)
+  double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock)
+  double soft_rows_time_us = 0.0;   ///< the soft rows written into the QP (wall clock)
 
   bool solved() const { return qp_status == qp::QpStatus::kSolved; }
 };
@@ -164,18 +182,19 @@ class IncrementalMpc {
   IncrementalMpcData& data() { return data_; }
   const IncrementalMpcData& data() const { return data_; }
 
-  /// Builds F, Φ, Y_w from data() (eq. 8–9). solve() calls it.
+  /// Builds Φ and the free response from data() (eq. 8–9). solve() calls it.
   void build_prediction();
   /// Builds and solves the QP, returns the result (valid until the next solve).
   const IncrementalMpcResult& solve();
   /// Forgets the warm start.
   void reset() { solver_.reset(); }
 
-  /// Prediction matrices of the last build_prediction(): Y = F ξ_k + Φ ΔU + Y_w.
-  const MatX& F() const { return F_; }
-  const MatX& Phi() const { return Phi_; }
-  const VecX& known_response() const { return Yw_; }
-  /// Y_free = F ξ_k + Y_w: the outputs predicted with every move zero (inputs held).
+  using RowMatX = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  /// The last build_prediction()'s prediction Y = Y_free + Φ ΔU: Φ is (Np·n_y)×(Nc·n_u) with
+  /// its columns ordered by input, then move (column c·Nc + i belongs to Δu_{k+i,c}; the QP's
+  /// ΔU is ordered by move, then input), and Y_free = F ξ_k + Y_w the outputs predicted with
+  /// every move zero (inputs held).
+  const RowMatX& Phi() const { return Phi_; }
   const VecX& free_response() const { return Yfree_; }
   const qp::QpProblem& qp_problem() const { return qp_; }
   /// The QP solver's full report of the last solve (residuals, gap, multipliers).
@@ -185,7 +204,10 @@ class IncrementalMpc {
 
  private:
   std::string_view check_data() const;
+  void collect_plant_nonzeros();
+  void build_cost();
   void assemble_qp();
+  void assemble_soft_rows();
   void extract_solution(const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
 
@@ -194,7 +216,7 @@ class IncrementalMpc {
 
   IncrementalMpcDims dims_;
   IncrementalMpcOptions options_;
-  int ns_, nu_, ny_, nd_, nxi_, np_, nc_, ng_, nz_;
+  int ns_, nu_, ny_, nd_, np_, nc_, ng_, nz_;
   int input_rows_begin_, output_rows_begin_, soft_rows_begin_;
 
   IncrementalMpcData data_;
@@ -202,18 +224,39 @@ class IncrementalMpc {
   qp::QpProblem qp_;
   qp::QpSolver solver_;
 
-  MatX F_;      // (Np·n_y)×n_ξ
-  MatX Phi_;    // (Np·n_y)×(Nc·n_u)
-  VecX Yw_;     // Np·n_y
-  VecX Yfree_;  // F ξ + Y_w
-  VecX qdiag_;  // Np·n_y, diagonal of Q̄
-  VecX qsqrt_;  // Q̄^{1/2} (diagonal)
-  MatX SPhi_;   // Q̄^{1/2} Φ
-  VecX err_;    // R − Y_free (stacked)
-  VecX y_, tmp_;
-  using RowMatX = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  RowMatX P_, T_, Y_;  // propagation of [F | Y_w | Φ] (see build_prediction)
-  VecX ds_, dsn_, w_;
+  // The exact nonzeros of the stage matrices A_j (all steps, in step order) and of C.
+  struct Entry {
+    int row, col;
+    double value;
+  };
+  std::vector<Entry> a_entries_;  // capacity Np·n_s²
+  std::vector<int> a_begin_;      // Np + 1 offsets into a_entries_
+  std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
+  int c_count_ = 0;
+  std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
+
+  // Φ and Γ order their columns by input, then move (see build_prediction).
+  RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
+  RowMatX Gamma_, Gnext_;  // n_s×(Nc·n_u): Γ_{j−1} and Γ_j; valid inside each row's reach
+  VecX Yfree_;             // Np·n_y
+  VecX qdiag_, qsqrt_;     // Np·n_y: diagonal of Q̄ and its square root
+  VecX err_;               // Q̄^{1/2}(R − Y_free), stacked
+  VecX ds_, dsn_, y_, w_;  // n_s, n_s, n_y, n_s
+
+  // Reach (bit c: input c) of each state and output component (collect_plant_nonzeros), and
+  // the output reach Φ was last cleared for.
+  std::vector<std::uint64_t> state_reach_, output_reach_, phi_reach_;
+  // One group per distinct output reach (build_cost), handled one at a time: its input
+  // columns S and its rows packed as W = [√q_r φ_r(S)]_r (|S|×rows) and e = [√q_r err_r]_r.
+  std::vector<std::uint64_t> group_reach_;  // n_y: the reaches already handled
+  std::vector<int> group_columns_;          // Nc·n_u: S, ascending
+  MatX group_w_;                            // (Nc·n_u)×(Np·n_y): W
+  VecX group_e_;                            // Np·n_y: e
+  MatX group_h_;                            // (Nc·n_u)²: W Wᵀ
+  VecX group_f_;                            // Nc·n_u: W e
+  MatX Hp_;                                 // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower
+  VecX fp_;                                 // Nc·n_u: f_u in Φ's column order
+  VecX soft_row_;                           // Nc·n_u: one soft row's aᵀΦ_j
 };
 
 }  // namespace ridgeline::mpc

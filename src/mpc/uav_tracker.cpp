@@ -112,6 +112,12 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   IncrementalMpcData& d = mpc_.data();
   d.C.setZero();
   d.C.leftCols(3).setIdentity();  // y = p (DESIGN §3)
+  const vehicle::Jacobians J = vehicle::discrete_jacobians(
+      vehicle::State::Zero(), options.vehicle, options.prediction_step_s);
+  for (int j = 0; j < np_; ++j) {
+    d.B[j] = J.B;
+    d.E[j] = J.E;
+  }
   const int steps_per_prediction =
       static_cast<int>(std::ceil(options.prediction_step_s / options.control_period_s));
   // Room for calls a few times faster than the nominal period before the history gets short.
@@ -398,27 +404,27 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   // 2–4. Nominal trajectory, Jacobians, wind feed-forward, reference.
   build_nominal(t_s, state, reference);
   for (int j = 0; j < np_; ++j) {
-    const vehicle::Jacobians J = vehicle::discrete_jacobians(nominal_states_.col(j), p, dt);
-    d.A[j] = J.A;
-    d.B[j] = J.B;
-    d.E[j] = J.E;
+    // B_j and E_j do not depend on the state (eq. 4): the constructor wrote them once.
+    d.A[j] = vehicle::discrete_jacobians(nominal_states_.col(j), p, dt).A;
     d.reference.col(j) = reference_points_[j + 1].position_m;
   }
   d.disturbance_delta.setZero();
   d.disturbance_delta.col(0) = delta_wind;
   d.state_offset.setZero();
   d.state_offset.col(0).noalias() = d.B[0] * (u_prev - mean_command);
+  const auto linearized = Clock::now();
 
   // 5–6. Limits and soft rows.
   set_limits(state);
+  const auto limited = Clock::now();
   add_soft_rows(t_s, state, environment);
+  const auto soft_rows_added = Clock::now();
 
   // 7. Solve and apply.
   const IncrementalMpcResult& r = mpc_.solve();
   result_.qp_status = r.qp_status;
   result_.qp_iterations = r.qp_iterations;
   result_.qp_time_us = r.qp_time_us;
-  result_.build_time_us = r.build_time_us;
   vehicle::Input u = u_prev;
   if (r.solved()) {
     u = r.first_input;
@@ -446,7 +452,15 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   have_previous_prediction_ = true;
   push_history(HistoryEntry{t_s, state, measured_wind_m_s, u_cmd});
   previous_command_ = u_cmd;
-  result_.step_time_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+  const auto us = [](Clock::duration d) { return std::chrono::duration<double, std::micro>(d).count(); };
+  result_.step_time_us = us(Clock::now() - start);
+  UavTrackerStepParts& parts = result_.parts;
+  parts.linearization_us = us(linearized - start);
+  parts.condensing_us = r.condensing_time_us;
+  parts.soft_rows_us = us(soft_rows_added - limited) + r.soft_rows_time_us;
+  parts.qp_us = r.qp_time_us;
+  parts.other_us = result_.step_time_us - parts.linearization_us - parts.condensing_us -
+                   parts.soft_rows_us - parts.qp_us;
   result_.step_cpu_time_us = (thread_cpu_time_s() - cpu_start_s) * 1e6;
   return result_;
 }

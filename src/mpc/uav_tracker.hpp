@@ -128,6 +128,16 @@ struct TrackerEnvironment {
   const world::Terrain* terrain = nullptr;
 };
 
+/// Where one step's time went, in wall-clock µs (steady clock: cheap to read, so the parts
+/// cost nothing measurable; a preempted part includes the wait).
+struct UavTrackerStepParts {
+  double linearization_us = 0.0;  ///< steps 1–4: increment, nominal, Jacobians, wind, reference
+  double condensing_us = 0.0;     ///< the MPC's Φ, free response, H and f
+  double soft_rows_us = 0.0;      ///< step 6 and the soft rows' QP rows
+  double qp_us = 0.0;             ///< the QP solve
+  double other_us = 0.0;          ///< the rest: limits, bounds, solution, command, bookkeeping
+};
+
 struct UavTrackerResult {
   vehicle::Input command = vehicle::Input::Zero();  ///< to send; within every hard limit
   bool command_clamped = false;       ///< the QP's first input needed clamping (> 1e-6)
@@ -137,8 +147,8 @@ struct UavTrackerResult {
   qp::QpStatus qp_status = qp::QpStatus::kInvalidInput;
   int qp_iterations = 0;
   double qp_time_us = 0.0;
-  double build_time_us = 0.0;  ///< QP assembly inside the MPC
-  double step_time_us = 0.0;   ///< the whole step: history, linearization, rows, solve
+  double step_time_us = 0.0;  ///< the whole step: history, linearization, rows, solve
+  UavTrackerStepParts parts;  ///< step_time_us split; the parts sum to it
   /// The same step in this thread's CPU time: without the time a shared machine's other
   /// processes held the core, which the wall-clock figure includes.
   double step_cpu_time_us = 0.0;

@@ -10,6 +10,7 @@
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "core/error.hpp"
+#include "vehicle/vehicle_model.hpp"
 
 namespace ridgeline::mpc {
 namespace {
@@ -23,6 +24,17 @@ MatX random_matrix(std::mt19937& rng, int rows, int cols, double scale) {
   return m;
 }
 
+// Φ with its columns in the QP's order (move, then input); IncrementalMpc::Phi() orders them
+// by input, then move.
+MatX phi_by_move(const IncrementalMpc& mpc) {
+  const int nu = mpc.dims().input_dim, nc = mpc.options().control_horizon;
+  MatX out(mpc.Phi().rows(), nu * nc);
+  for (int i = 0; i < nc; ++i) {
+    for (int c = 0; c < nu; ++c) out.col(i * nu + c) = mpc.Phi().col(c * nc + i);
+  }
+  return out;
+}
+
 IncrementalMpcOptions basic_options(int ny, int nu, int np, int nc) {
   IncrementalMpcOptions o;
   o.prediction_horizon = np;
@@ -32,7 +44,7 @@ IncrementalMpcOptions basic_options(int ny, int nu, int np, int nc) {
   return o;
 }
 
-// Y = Fξ + ΦΔU + Y_w must equal stepping the augmented system of eq. 7 with explicitly formed
+// Y = Y_free + ΦΔU must equal stepping the augmented system of eq. 7 with explicitly formed
 // Ã_j = [A_j 0; C A_j I], B̃_j = [B_j; C B_j] — an independent implementation of the same
 // recursion. The products involve ≤ 40 factors of norm ≈ 1.1 on O(1) data, so rounding stays
 // near 1e-13 relative; 1e-9 absolute is the brief's bound with a wide margin.
@@ -57,7 +69,6 @@ TEST(IncrementalMpcPrediction, MatricesMatchStepByStepAugmentedSimulationTimeVar
 
   VecX xi(ns + ny);
   xi << d.delta_state, d.output;
-  VecX xi0 = xi;
   VecX Y_sim(np * ny);
   for (int j = 0; j < np; ++j) {
     MatX At = MatX::Zero(ns + ny, ns + ny);
@@ -74,10 +85,11 @@ TEST(IncrementalMpcPrediction, MatricesMatchStepByStepAugmentedSimulationTimeVar
     xi = At * xi + Bt * du + wt;
     Y_sim.segment(j * ny, ny) = xi.tail(ny);
   }
-  const VecX Y_pred = mpc.F() * xi0 + mpc.Phi() * dU + mpc.known_response();
+  const MatX Phi = phi_by_move(mpc);
+  const VecX Y_pred = mpc.free_response() + Phi * dU;
   EXPECT_LT((Y_pred - Y_sim).cwiseAbs().maxCoeff(), 1e-9);
   // Φ is block lower-triangular: a move cannot act on earlier outputs.
-  EXPECT_EQ(mpc.Phi().topRightCorner(ny, (nc - 1) * nu).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(Phi.topRightCorner(ny, (nc - 1) * nu).cwiseAbs().maxCoeff(), 0.0);
 }
 
 // For an LTI plant the incremental prediction must reproduce the ORIGINAL (absolute) plant
@@ -114,10 +126,191 @@ TEST(IncrementalMpcPrediction, LtiPredictionEqualsAbsolutePlantSimulation) {
     s = A * s + B * u + E * dist.segment(j + 1, 1);
     Y_sim.segment(j * ny, ny) = C * s;
   }
-  VecX xi(ns + ny);
-  xi << d.delta_state, d.output;
-  const VecX Y_pred = mpc.F() * xi + mpc.Phi() * dU + mpc.known_response();
+  const VecX Y_pred = mpc.free_response() + phi_by_move(mpc) * dU;
   EXPECT_LT((Y_pred - Y_sim).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+// The textbook dense condensing, the reference for the structured one of IncrementalMpc: the
+// augmented system Ã_j = [A_j 0; C A_j I], B̃_j = [B_j; C B_j], w̃_j = [w_j; C w_j] formed
+// explicitly, F, Φ and Y_w stacked by dense products, then H_uu = 2(ΦᵀQ̄Φ + R̄) and
+// f_u = −2ΦᵀQ̄(R − Fξ − Y_w), and each soft row aᵀΦ_j ΔU + σ_g ≥ b − aᵀ(Fξ + Y_w)_j.
+struct DenseCondensing {
+  MatX H;   // Nc·n_u square
+  VecX f;   // Nc·n_u
+  MatX G;   // soft rows × Nc·n_u
+  VecX lg;  // soft rows
+};
+
+DenseCondensing dense_condensing(const IncrementalMpcData& d, const IncrementalMpcOptions& o) {
+  const int ns = static_cast<int>(d.C.cols()), ny = static_cast<int>(d.C.rows());
+  const int nu = static_cast<int>(d.B[0].cols()), nxi = ns + ny;
+  const int np = o.prediction_horizon, nc = o.control_horizon;
+  std::vector<MatX> At(np), Bt(np);
+  std::vector<VecX> wt(np);
+  for (int j = 0; j < np; ++j) {
+    At[j] = MatX::Zero(nxi, nxi);
+    At[j].topLeftCorner(ns, ns) = d.A[j];
+    At[j].bottomLeftCorner(ny, ns) = d.C * d.A[j];
+    At[j].bottomRightCorner(ny, ny).setIdentity();
+    Bt[j] = MatX(nxi, nu);
+    Bt[j] << d.B[j], d.C * d.B[j];
+    const VecX w = d.E[j] * d.disturbance_delta.col(j) + d.state_offset.col(j);
+    wt[j] = VecX(nxi);
+    wt[j] << w, d.C * w;
+  }
+  MatX Ct = MatX::Zero(ny, nxi);
+  Ct.rightCols(ny).setIdentity();
+  MatX F(np * ny, nxi), Phi = MatX::Zero(np * ny, nc * nu);
+  VecX Yw(np * ny);
+  MatX X = MatX::Identity(nxi, nxi);
+  VecX v = VecX::Zero(nxi);
+  for (int j = 0; j < np; ++j) {
+    X = At[j] * X;
+    v = At[j] * v + wt[j];
+    F.middleRows(j * ny, ny) = Ct * X;
+    Yw.segment(j * ny, ny) = Ct * v;
+  }
+  for (int i = 0; i < nc; ++i) {
+    MatX M = Bt[i];
+    for (int j = i; j < np; ++j) {
+      if (j > i) M = At[j] * M;
+      Phi.block(j * ny, i * nu, ny, nu) = Ct * M;
+    }
+  }
+  VecX xi(nxi);
+  xi << d.delta_state, d.output;
+  const VecX Yfree = F * xi + Yw;
+  VecX q(np * ny), R(np * ny);
+  for (int j = 0; j < np; ++j) {
+    q.segment(j * ny, ny) = j == np - 1 && o.terminal_output_weight.size() == ny
+                                ? o.terminal_output_weight
+                                : o.output_weight;
+    R.segment(j * ny, ny) = d.reference.col(j);
+  }
+  DenseCondensing out;
+  out.H = 2.0 * Phi.transpose() * q.asDiagonal() * Phi;
+  for (int i = 0; i < nc; ++i) {
+    out.H.diagonal().segment(i * nu, nu) += 2.0 * o.move_weight;
+  }
+  out.f = -2.0 * Phi.transpose() * q.asDiagonal() * (R - Yfree);
+  out.G = MatX(d.soft_row_count, nc * nu);
+  out.lg = VecX(d.soft_row_count);
+  for (int r = 0; r < d.soft_row_count; ++r) {
+    const int j = d.soft_step[r];
+    out.G.row(r) = d.soft_normal.col(r).transpose() * Phi.middleRows(j * ny, ny);
+    out.lg[r] = d.soft_bound[r] - d.soft_normal.col(r).dot(Yfree.segment(j * ny, ny));
+  }
+  return out;
+}
+
+// Fills a step's data with random values on the plant already in d.A/B/E/C and solves it.
+void randomize_step_and_solve(std::mt19937& rng, IncrementalMpc& mpc, int soft_rows) {
+  IncrementalMpcData& d = mpc.data();
+  const int ns = mpc.dims().state_dim, ny = mpc.dims().output_dim;
+  const int nd = mpc.dims().disturbance_dim, np = mpc.options().prediction_horizon;
+  d.delta_state = random_matrix(rng, ns, 1, 1.0);
+  d.output = random_matrix(rng, ny, 1, 50.0);
+  d.state = random_matrix(rng, ns, 1, 50.0);
+  d.disturbance_delta = random_matrix(rng, nd, np, 0.3);
+  d.state_offset = random_matrix(rng, ns, np, 0.05);
+  d.reference = random_matrix(rng, ny, np, 50.0);
+  d.clear_soft_rows();
+  std::uniform_int_distribution<int> step(0, np - 1);
+  for (int r = 0; r < soft_rows; ++r) {
+    const VecX a = random_matrix(rng, ny, 1, 1.0);
+    ASSERT_TRUE(d.add_soft_row(step(rng), a, 10.0 * a(0, 0), r % mpc.dims().slack_groups));
+  }
+  mpc.solve();
+}
+
+// Structured and dense condensing must agree to round-off. Each entry is a sum of at most
+// Np·n_y products of O(1)–O(1e2) terms summed in another order, so the difference is a few
+// hundred ulps of the largest entry at most; 1e-11 relative to it leaves a wide margin and
+// still catches any wrong term (those are O(1) relative).
+void expect_condensing_equals_dense(const IncrementalMpc& mpc) {
+  const DenseCondensing ref = dense_condensing(mpc.data(), mpc.options());
+  const qp::QpProblem& qp = mpc.qp_problem();
+  const int nU = mpc.options().control_horizon * mpc.dims().input_dim;
+  const auto H = qp.H.topLeftCorner(nU, nU);
+  EXPECT_LE((H - ref.H).cwiseAbs().maxCoeff(), 1e-11 * ref.H.cwiseAbs().maxCoeff());
+  EXPECT_EQ(H, H.transpose());
+  EXPECT_LE((qp.f.head(nU) - ref.f).cwiseAbs().maxCoeff(), 1e-11 * ref.f.cwiseAbs().maxCoeff());
+  const int soft = mpc.data().soft_row_count;
+  const int first_soft = nU;  // after the input-limit rows (no hard output limits here)
+  ASSERT_GE(qp.G.rows(), first_soft + soft);
+  const auto G = qp.G.block(first_soft, 0, soft, nU);
+  EXPECT_LE((G - ref.G).cwiseAbs().maxCoeff(), 1e-11 * ref.G.cwiseAbs().maxCoeff());
+  const auto lg = qp.lg.segment(first_soft, soft);
+  EXPECT_LE((lg - ref.lg).cwiseAbs().maxCoeff(), 1e-11 * ref.lg.cwiseAbs().maxCoeff());
+}
+
+TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnRandomDensePlants) {
+  std::mt19937 rng(21);
+  for (int trial = 0; trial < 5; ++trial) {
+    const int ns = 3 + trial, nu = 1 + trial % 3, ny = 1 + trial % 3, np = 12 + 7 * trial;
+    const int nc = 1 + 2 * trial;
+    IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+    o.output_weight = random_matrix(rng, ny, 1, 1.0).cwiseAbs();
+    o.terminal_output_weight = 3.0 * o.output_weight;
+    o.move_weight = random_matrix(rng, nu, 1, 1.0).cwiseAbs().array() + 0.1;
+    IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, 2, 4 * np, 2}, o);
+    IncrementalMpcData& d = mpc.data();
+    d.C = random_matrix(rng, ny, ns, 1.0);
+    for (int j = 0; j < np; ++j) {
+      d.A[j] = MatX::Identity(ns, ns) + random_matrix(rng, ns, ns, 0.1);
+      d.B[j] = random_matrix(rng, ns, nu, 0.5);
+      d.E[j] = random_matrix(rng, ns, 2, 0.3);
+    }
+    randomize_step_and_solve(rng, mpc, 2 * np);
+    SCOPED_TRACE(trial);
+    expect_condensing_equals_dense(mpc);
+  }
+}
+
+// The UAV's Euler Jacobians (eq. 4) along random nominal states: x, y are reached only by the
+// speed and turn commands, z only by the climb command, which the structured sums exploit. A
+// heading of exactly 0 makes sin ψ̄ an exact zero of A_j at some steps. A fourth output reads
+// a state no input reaches (its rows of Φ are zero) and must add nothing. Φ's columns outside
+// a row's reach are never written, so a dense plant solved before must leave no trace.
+TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOutput) {
+  std::mt19937 rng(42);
+  const vehicle::VehicleParams p;
+  const int ns = vehicle::kStateDim + 1, nu = vehicle::kInputDim, ny = 4, np = 40, nc = 10;
+  IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+  o.output_weight = Eigen::Vector4d(1.0, 1.0, 2.0, 5.0);
+  o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
+  IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, 3, 4 * np, 3}, o);
+  IncrementalMpcData& d = mpc.data();
+  d.C = MatX::Zero(ny, ns);
+  d.C.topLeftCorner(3, 3).setIdentity();
+  d.C(3, ns - 1) = 1.0;  // an extra state integrating nothing the inputs move
+  // First a dense plant, whose Φ is nonzero everywhere: the sparser reaches after it must not
+  // keep its entries.
+  for (int j = 0; j < np; ++j) {
+    d.A[j] = MatX::Identity(ns, ns) + random_matrix(rng, ns, ns, 0.05);
+    d.B[j] = random_matrix(rng, ns, nu, 0.5);
+  }
+  randomize_step_and_solve(rng, mpc, np);
+  expect_condensing_equals_dense(mpc);
+  std::uniform_real_distribution<double> heading(-kPi, kPi);
+  for (int trial = 0; trial < 3; ++trial) {
+    for (int j = 0; j < np; ++j) {
+      vehicle::State s = vehicle::State::Zero();
+      s[vehicle::kPsi] = (trial == 0 && j % 5 == 0) ? 0.0 : heading(rng);
+      s[vehicle::kV] = 8.0 + 4.0 * (j % 3);
+      const vehicle::Jacobians J = vehicle::discrete_jacobians(s, p, 0.1);
+      d.A[j] = MatX::Identity(ns, ns);
+      d.A[j].topLeftCorner(vehicle::kStateDim, vehicle::kStateDim) = J.A;
+      d.A[j](ns - 1, ns - 1) = 0.9;
+      d.B[j] = MatX::Zero(ns, nu);
+      d.B[j].topRows(vehicle::kStateDim) = J.B;
+      d.E[j] = MatX::Zero(ns, 3);
+      d.E[j].topRows(vehicle::kStateDim) = J.E;
+    }
+    randomize_step_and_solve(rng, mpc, 3 * np);
+    SCOPED_TRACE(trial);
+    expect_condensing_equals_dense(mpc);
+  }
 }
 
 TEST(IncrementalMpcOptionsCheck, RejectsInconsistentOptionsNamingTheField) {

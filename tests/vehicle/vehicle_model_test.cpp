@@ -150,6 +150,18 @@ TEST(VehicleModel, DiscreteJacobiansAreTheEulerStepsDerivatives) {
   }
 }
 
+// The tracker writes B_d and E_d once and only A_d each step (src/mpc/uav_tracker.cpp), which
+// holds while the input and wind enter eq. 4 linearly with constant gains: exactly equal.
+TEST(VehicleModel, DiscreteInputAndWindJacobiansDoNotDependOnTheState) {
+  const VehicleParams p = default_params();
+  const Jacobians J0 = discrete_jacobians(State::Zero(), p, 0.1);
+  for (const State& s : {make_state(2.1, 11.0, -0.2, 0.8), make_state(-3.0, 7.5, 0.4, -1.9)}) {
+    const Jacobians J = discrete_jacobians(s, p, 0.1);
+    EXPECT_EQ(J.B, J0.B);
+    EXPECT_EQ(J.E, J0.E);
+  }
+}
+
 TEST(VehicleModel, ClampRespectsSpeedTurnClimbAndPitchLimits) {
   VehicleParams p = default_params();
   p.max_pitch_rad = deg_to_rad(10.0);  // makes the pitch limit tighter than w_max at 10 m/s
