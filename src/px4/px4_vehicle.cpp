@@ -24,6 +24,8 @@ Px4VehicleStats serve_px4_vehicle_lockstep(mavlink::SimulatedVehicle& vehicle,
   const std::string& ns = link.vehicle_namespace(0);
   const std::string setpoint_topic =
       transport_dds::px4_topic_name(transport_dds::Topic<msg::TrajectorySetpoint>::spec.name, ns);
+  const std::string command_topic =
+      transport_dds::px4_topic_name(transport_dds::Topic<msg::VehicleCommand>::spec.name, ns);
   std::vector<transport_dds::Px4Received> received;
   while (!stop.load() && (duration_s <= 0.0 || elapsed() < duration_s)) {
     if (!link.wait(0.1)) continue;
@@ -48,7 +50,9 @@ Px4VehicleStats serve_px4_vehicle_lockstep(mavlink::SimulatedVehicle& vehicle,
         const bool stream_alive = vehicle.time_s() - last_mode_s <= vehicle.setpoint_timeout_s();
         if (c->command == msg::VehicleCommand::kDoSetMode && !stream_alive) {
           ++stats.commands_refused;
-          stats.last_rejection = "offboard refused: no offboard_control_mode stream";
+          stats.last_rejection = fmt::format(
+              "{}: offboard refused: no offboard_control_mode within {:g} s", command_topic,
+              vehicle.setpoint_timeout_s());
           continue;
         }
         vehicle.handle_lockstep(mavlink::Message(command_long(*c)), period_s);

@@ -119,7 +119,6 @@ void Px4Link::publish(int vehicle, const M& message) {
     throw InputError("vehicle", fmt::format("{} is not one of the link's {} vehicles", vehicle,
                                             size()));
   write_message(d.entities[static_cast<std::size_t>(vehicle)][index], message, d.arena);
-  ++published_;
 }
 template void Px4Link::publish(int, const px4::OffboardControlMode&);
 template void Px4Link::publish(int, const px4::TrajectorySetpoint&);

@@ -18,8 +18,8 @@
 
 namespace ridgeline::transport_dds {
 
-/// Why `ns` is not a PX4 vehicle namespace ("" or uav_N, N a decimal number without leading
-/// zeros), or nothing when it is one.
+/// Why `ns` is not a PX4 vehicle namespace ("" or uav_N, N in 0..999 without leading zeros),
+/// or nothing when it is one.
 std::optional<std::string> check_px4_namespace(const std::string& ns);
 /// The DDS topic `topic` (a name of topics.hpp, rt/fmu/...) of the vehicle in namespace `ns`.
 std::string px4_topic_name(const std::string& topic, const std::string& ns);
@@ -59,13 +59,11 @@ class Px4Link {
   const std::string& vehicle_namespace(int vehicle) const {
     return namespaces_[static_cast<std::size_t>(vehicle)];
   }
-  std::uint64_t published() const { return published_; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::vector<std::string> namespaces_;
-  std::uint64_t published_ = 0;
 };
 
 }  // namespace ridgeline::transport_dds

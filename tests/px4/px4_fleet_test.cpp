@@ -47,9 +47,11 @@ struct ServedVehicle {
         link(std::make_shared<transport_dds::DdsParticipant>(dds()), transport_dds::Px4Side::kVehicle,
              {ns}),
         thread([this] { stats = serve_px4_vehicle_lockstep(vehicle, link, kPeriod, 0.0, stop); }) {}
-  ~ServedVehicle() {
+  ~ServedVehicle() { finish(); }
+  /// Stops serving; `stats` is final afterwards.
+  void finish() {
     stop = true;
-    thread.join();
+    if (thread.joinable()) thread.join();
   }
   mavlink::SimulatedVehicle vehicle;
   transport_dds::Px4Link link;
@@ -164,6 +166,39 @@ TEST(Px4Fleet, OdometryWithNaNIsRejectedAndCountedNeverFlownOn) {
   EXPECT_NE(error.find("last: rt/uav_1/fmu/out/vehicle_odometry: velocity[2] is nan"),
             std::string::npos)
       << error;
+}
+
+// As PX4, the vehicle enters offboard only while offboard_control_mode arrives: setpoints and
+// commands alone arm it but never switch it to offboard.
+TEST(Px4Vehicle, OffboardIsRefusedWithoutTheOffboardControlModeStream) {
+  ServedVehicle served("uav_1", Vec3(100.0, 130.0, 60.0));
+  transport_dds::Px4Link companion(std::make_shared<transport_dds::DdsParticipant>(dds()),
+                                   transport_dds::Px4Side::kCompanion, {"uav_1"});
+  const mavlink::SetPositionTargetLocalNed hold = mavlink::hold_setpoint(
+      Vec3(100.0, 130.0, 60.0), 0.0, mavlink::SimulatedVehicle::kKeepAliveStamp, 1, 1);
+  bool armed = false, offboard = false;
+  std::vector<transport_dds::Px4Received> got;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (std::chrono::steady_clock::now() < until) {
+    companion.publish(0, trajectory_setpoint(hold, kKeepAliveStampUs));
+    companion.publish(0, armed ? offboard_command(1, kKeepAliveStampUs)
+                               : arm_command(1, kKeepAliveStampUs));
+    companion.wait(0.05);
+    got.clear();
+    companion.take(got);
+    for (const transport_dds::Px4Received& r : got)
+      if (const auto* s = std::get_if<msg::VehicleStatus>(&r.message)) {
+        armed = armed || status_armed(*s);
+        offboard = offboard || status_offboard(*s);
+      }
+  }
+  served.finish();
+  EXPECT_TRUE(armed);
+  EXPECT_FALSE(offboard);
+  EXPECT_GT(served.stats.commands_refused, 0u);
+  EXPECT_EQ(served.stats.last_rejection,
+            "rt/uav_1/fmu/in/vehicle_command: offboard refused: no offboard_control_mode within "
+            "0.5 s");
 }
 
 }  // namespace
