@@ -45,17 +45,19 @@ Px4Team::Px4Team(const mission::Scenario& scenario, const Px4TeamOptions& option
       continue;
     }
     std::vector<std::string> arguments = {
-        "vehicle-sim", "--px4-dds", "--px4-namespace", namespaces[i],
-        "--domain-id", std::to_string(dds_.domain_id), "--partition", dds_.partition,
-        "--uav", std::to_string(i), "--lockstep", "--wind", "--cruise-start"};
+        "vehicle-sim",     "--px4-dds",    "--px4-namespace",
+        namespaces[i],     "--domain-id",  std::to_string(dds_.domain_id),
+        "--partition",     dds_.partition, "--uav",
+        std::to_string(i), "--lockstep",   "--wind",
+        "--cruise-start"};
     if (!options.scenario_path.empty()) {
       arguments.push_back("--scenario");
       arguments.push_back(options.scenario_path);
     }
     processes_.spawn(arguments, options.log_dir.empty()
                                     ? std::string()
-                                    : (options.log_dir / fmt::format("vehicle-sim-{}.log",
-                                                                     scenario.uavs[i].name))
+                                    : (options.log_dir /
+                                       fmt::format("vehicle-sim-{}.log", scenario.uavs[i].name))
                                           .string());
   }
   px4::Px4FleetOptions fo;
@@ -94,34 +96,30 @@ nlohmann::json Px4Team::to_json() const {
   std::uint64_t sent = 0, received = 0, rejected = 0, resends = 0;
   for (int i = 0; i < fleet_->size(); ++i) {
     const px4::Px4FleetVehicleStats& s = fleet_->stats(i);
-    vehicles.push_back({{"uav", names_[static_cast<std::size_t>(i)]},
-                        {"namespace", fleet_->vehicle_namespace(i)},
-                        {"process", processes_.status(i)},
-                        {"steps", s.steps},
-                        {"samples_sent", s.samples_sent},
-                        {"odometry_received", s.odometry_received},
-                        {"status_received", s.status_received},
-                        {"odometry_rejected", s.rejected},
-                        {"last_rejection", s.last_rejection},
-                        {"resends", s.resends},
-                        {"stale_reports", s.stale_reports},
-                        {"start_s", s.start_s},
-                        {"round_trip_us", mission::to_json(mission::percentiles(s.round_trip_us))}});
+    vehicles.push_back(
+        {{"uav", names_[static_cast<std::size_t>(i)]},
+         {"namespace", fleet_->vehicle_namespace(i)},
+         {"process", processes_.status(i)},
+         {"steps", s.steps},
+         {"samples_sent", s.samples_sent},
+         {"odometry_received", s.odometry_received},
+         {"status_received", s.status_received},
+         {"odometry_rejected", s.rejected},
+         {"last_rejection", s.last_rejection},
+         {"resends", s.resends},
+         {"stale_reports", s.stale_reports},
+         {"start_s", s.start_s},
+         {"round_trip_us", mission::to_json(mission::percentiles(s.round_trip_us))}});
     sent += s.samples_sent;
     received += s.odometry_received + s.status_received;
     rejected += s.rejected;
     resends += s.resends;
   }
-  return {{"mode", "lock-step"},
-          {"px4_release", "v1.14"},
-          {"domain_id", dds_.domain_id},
-          {"partition", dds_.partition},
-          {"period_s", period_s_},
-          {"home_altitude_m", home_altitude_m_},
-          {"samples_sent", sent},
-          {"samples_received", received},
-          {"odometry_rejected", rejected},
-          {"resends", resends},
+  return {{"mode", "lock-step"},           {"px4_release", "v1.14"},
+          {"domain_id", dds_.domain_id},   {"partition", dds_.partition},
+          {"period_s", period_s_},         {"home_altitude_m", home_altitude_m_},
+          {"samples_sent", sent},          {"samples_received", received},
+          {"odometry_rejected", rejected}, {"resends", resends},
           {"vehicles", vehicles}};
 }
 

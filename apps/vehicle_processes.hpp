@@ -26,9 +26,7 @@ class VehicleProcesses {
   /// Stops the running ones (SIGTERM, then SIGKILL after 3 s) and records how each ended.
   void stop();
   /// "external", "running" or how it ended ("exit 0", "killed by signal 9", ...).
-  const std::string& status(int i) const {
-    return processes_[static_cast<std::size_t>(i)].status;
-  }
+  const std::string& status(int i) const { return processes_[static_cast<std::size_t>(i)].status; }
 
  private:
   struct Process {

@@ -68,6 +68,7 @@ void Px4Fleet::receive(double timeout_s) {
         continue;
       }
       v.have_odometry = true;
+      v.odometry_in_offboard = v.armed && v.offboard;
       v.odometry_stamp = o->timestamp;
       v.report = *converted.report;
     } else if (const auto* s = std::get_if<msg::VehicleStatus>(&r.message)) {
@@ -75,6 +76,7 @@ void Px4Fleet::receive(double timeout_s) {
       v.have_status = true;
       v.armed = status_armed(*s);
       v.offboard = status_offboard(*s);
+      if (!(v.armed && v.offboard)) v.odometry_in_offboard = false;
     }
   }
 }
@@ -83,7 +85,8 @@ void Px4Fleet::start(std::vector<mavlink::FleetReport>& out) {
   const Clock::time_point start = Clock::now();
   std::vector<double> next_round(vehicles_.size(), 0.0);
   auto ready = [](const Vehicle& v) {
-    return v.have_odometry && v.odometry_stamp == 0 && v.have_status && v.armed && v.offboard;
+    return v.have_odometry && v.odometry_stamp == 0 && v.have_status && v.armed && v.offboard &&
+           v.odometry_in_offboard;
   };
   for (;;) {
     bool all_ready = true;
@@ -96,16 +99,17 @@ void Px4Fleet::start(std::vector<mavlink::FleetReport>& out) {
       if (now > o_.start_timeout_s) {
         const std::string waited =
             !v.have_odometry
-                ? fmt::format("{}: no usable odometry ({} received, {} rejected{})",
-                              topic(i, topic_of<msg::VehicleOdometry>()),
-                              v.stats.odometry_received, v.stats.rejected,
-                              v.stats.last_rejection.empty() ? ""
-                                                             : "; last: " + v.stats.last_rejection)
-            : !v.have_status ? fmt::format("{}: no status", topic(i, topic_of<msg::VehicleStatus>()))
-            : !v.armed       ? fmt::format("{}: never armed", topic(i, topic_of<msg::VehicleStatus>()))
+                ? fmt::format(
+                      "{}: no usable odometry ({} received, {} rejected{})",
+                      topic(i, topic_of<msg::VehicleOdometry>()), v.stats.odometry_received,
+                      v.stats.rejected,
+                      v.stats.last_rejection.empty() ? "" : "; last: " + v.stats.last_rejection)
+            : !v.have_status
+                ? fmt::format("{}: no status", topic(i, topic_of<msg::VehicleStatus>()))
+            : !v.armed ? fmt::format("{}: never armed", topic(i, topic_of<msg::VehicleStatus>()))
             : !v.offboard
                 ? fmt::format("{}: never in offboard", topic(i, topic_of<msg::VehicleStatus>()))
-                : fmt::format("{}: its clock is not at 0",
+                : fmt::format("{}: odometry in offboard stamped 0 (its clock is elsewhere)",
                               topic(i, topic_of<msg::VehicleOdometry>()));
         throw InputError(v.name, fmt::format("the PX4 vehicle did not start a lock-step offboard "
                                              "flight within {:g} s; waited for {}",

@@ -73,6 +73,10 @@ class Px4Fleet {
     std::string name;
     Px4FleetVehicleStats stats;
     bool have_odometry = false, have_status = false;
+    /// Odometry received while the latest status showed armed + offboard: the two are separate
+    /// topics, so a status can overtake the odometry of the same answer, and the state before
+    /// offboard (hovering) must not start the flight.
+    bool odometry_in_offboard = false;
     std::uint64_t odometry_stamp = 0;
     mavlink::FleetReport report;
     bool armed = false, offboard = false;

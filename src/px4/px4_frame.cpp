@@ -28,9 +28,8 @@ std::string first_not_finite(const char* name, const std::array<float, N>& v) {
 }  // namespace
 
 std::uint64_t stamp_us(std::uint32_t stamp_ms) {
-  return stamp_ms == mavlink::SimulatedVehicle::kKeepAliveStamp
-             ? kKeepAliveStampUs
-             : std::uint64_t{stamp_ms} * 1000u;
+  return stamp_ms == mavlink::SimulatedVehicle::kKeepAliveStamp ? kKeepAliveStampUs
+                                                                : std::uint64_t{stamp_ms} * 1000u;
 }
 
 msg::TrajectorySetpoint trajectory_setpoint(const mavlink::SetPositionTargetLocalNed& sp,
@@ -119,8 +118,8 @@ ReportFromPx4 report_from_px4(const msg::VehicleOdometry& o, double home_altitud
   const double yaw = std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
   const double pitch = std::asin(std::clamp(2.0 * (w * y - z * x), -1.0, 1.0));
   mavlink::FleetReport r;
-  r.position_m = mavlink::ned_position_to_enu(
-      Vec3(o.position[0], o.position[1], o.position[2]), home_altitude_m);
+  r.position_m = mavlink::ned_position_to_enu(Vec3(o.position[0], o.position[1], o.position[2]),
+                                              home_altitude_m);
   r.ground_velocity_m_s = mavlink::ned_to_enu(Vec3(o.velocity[0], o.velocity[1], o.velocity[2]));
   r.heading_rad = mavlink::ned_yaw_to_enu_heading(yaw);
   r.turn_rate_rad_s = -static_cast<double>(o.angular_velocity[2]) / std::cos(pitch);
@@ -132,8 +131,8 @@ msg::VehicleStatus vehicle_status(bool armed, bool offboard, std::uint64_t stamp
   s.timestamp = stamp;
   s.arming_state =
       armed ? msg::VehicleStatus::kArmingStateArmed : msg::VehicleStatus::kArmingStateStandby;
-  s.nav_state = s.nav_state_user_intention = offboard ? msg::VehicleStatus::kNavStateOffboard
-                                                      : msg::VehicleStatus::kNavStateAutoLoiter;
+  s.nav_state = s.nav_state_user_intention =
+      offboard ? msg::VehicleStatus::kNavStateOffboard : msg::VehicleStatus::kNavStateAutoLoiter;
   s.vehicle_type = msg::VehicleStatus::kVehicleTypeRotaryWing;
   s.system_type = mavlink::kMavTypeHexarotor;
   s.system_id = s.component_id = 1;

@@ -50,9 +50,9 @@ Px4VehicleStats serve_px4_vehicle_lockstep(mavlink::SimulatedVehicle& vehicle,
         const bool stream_alive = vehicle.time_s() - last_mode_s <= vehicle.setpoint_timeout_s();
         if (c->command == msg::VehicleCommand::kDoSetMode && !stream_alive) {
           ++stats.commands_refused;
-          stats.last_rejection = fmt::format(
-              "{}: offboard refused: no offboard_control_mode within {:g} s", command_topic,
-              vehicle.setpoint_timeout_s());
+          stats.last_rejection =
+              fmt::format("{}: offboard refused: no offboard_control_mode within {:g} s",
+                          command_topic, vehicle.setpoint_timeout_s());
           continue;
         }
         vehicle.handle_lockstep(mavlink::Message(command_long(*c)), period_s);

@@ -95,7 +95,8 @@ Px4Link::Px4Link(std::shared_ptr<DdsParticipant> participant, Px4Side side,
     };
     [&]<std::size_t... I>(std::index_sequence<I...>) {
       (add(std::integral_constant<std::size_t, I>{}), ...);
-    }(std::make_index_sequence<kTypes>{});
+    }
+    (std::make_index_sequence<kTypes>{});
     d.entities.push_back(e);
   }
 }
@@ -113,11 +114,11 @@ void Px4Link::publish(int vehicle, const M& message) {
   Impl& d = *impl_;
   constexpr std::size_t index = type_index<M>();
   if (!writes(d.side, index))
-    throw InputError("Px4Link", fmt::format("this side does not publish {}",
-                                            messages::WireFields<M>::name));
+    throw InputError("Px4Link",
+                     fmt::format("this side does not publish {}", messages::WireFields<M>::name));
   if (vehicle < 0 || vehicle >= size())
-    throw InputError("vehicle", fmt::format("{} is not one of the link's {} vehicles", vehicle,
-                                            size()));
+    throw InputError("vehicle",
+                     fmt::format("{} is not one of the link's {} vehicles", vehicle, size()));
   write_message(d.entities[static_cast<std::size_t>(vehicle)][index], message, d.arena);
 }
 template void Px4Link::publish(int, const px4::OffboardControlMode&);
@@ -135,12 +136,15 @@ void Px4Link::take(std::vector<Px4Received>& out) {
       // PX4's messages hold no sequence, so a conversion never refuses a sample.
       take_messages<M>(
           d.entities[v][I], 0, [](const auto&) { return false; },
-          [&](M&& m) { out.push_back({static_cast<int>(v), Px4Message(std::move(m))}); },
+          [&](M&& m) {
+            out.push_back({static_cast<int>(v), Px4Message(std::move(m))});
+          },
           [](const auto&, const std::string&) {});
     };
     [&]<std::size_t... I>(std::index_sequence<I...>) {
       (take_one(std::integral_constant<std::size_t, I>{}), ...);
-    }(std::make_index_sequence<kTypes>{});
+    }
+    (std::make_index_sequence<kTypes>{});
   }
 }
 

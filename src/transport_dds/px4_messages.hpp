@@ -38,13 +38,13 @@ RIDGELINE_WIRE_FIELDS(OffboardControlMode, "OffboardControlMode", timestamp, pos
 
 /// fmu/in/trajectory_setpoint: NED; NaN = not controlled.
 struct TrajectorySetpoint {
-  std::uint64_t timestamp = 0;                ///< µs
-  std::array<float, 3> position{};            ///< m, NED
-  std::array<float, 3> velocity{};            ///< m/s, NED
-  std::array<float, 3> acceleration{};        ///< m/s², NED
-  std::array<float, 3> jerk{};                ///< m/s³ (PX4 logs it only)
-  float yaw = 0.0f;                           ///< rad from north, clockwise, (−π, π]
-  float yawspeed = 0.0f;                      ///< rad/s about NED z
+  std::uint64_t timestamp = 0;          ///< µs
+  std::array<float, 3> position{};      ///< m, NED
+  std::array<float, 3> velocity{};      ///< m/s, NED
+  std::array<float, 3> acceleration{};  ///< m/s², NED
+  std::array<float, 3> jerk{};          ///< m/s³ (PX4 logs it only)
+  float yaw = 0.0f;                     ///< rad from north, clockwise, (−π, π]
+  float yawspeed = 0.0f;                ///< rad/s about NED z
 };
 RIDGELINE_WIRE_FIELDS(TrajectorySetpoint, "TrajectorySetpoint", timestamp, position, velocity,
                       acceleration, jerk, yaw, yawspeed)
@@ -53,7 +53,7 @@ RIDGELINE_WIRE_FIELDS(TrajectorySetpoint, "TrajectorySetpoint", timestamp, posit
 struct VehicleCommand {
   static constexpr std::uint32_t kDoSetMode = 176;           ///< VEHICLE_CMD_DO_SET_MODE
   static constexpr std::uint32_t kComponentArmDisarm = 400;  ///< VEHICLE_CMD_COMPONENT_ARM_DISARM
-  std::uint64_t timestamp = 0;  ///< µs
+  std::uint64_t timestamp = 0;                               ///< µs
   float param1 = 0.0f;
   float param2 = 0.0f;
   float param3 = 0.0f;
@@ -77,14 +77,14 @@ RIDGELINE_WIRE_FIELDS(VehicleCommand, "VehicleCommand", timestamp, param1, param
 struct VehicleOdometry {
   static constexpr std::uint8_t kPoseFrameNed = 1;      ///< POSE_FRAME_NED
   static constexpr std::uint8_t kVelocityFrameNed = 1;  ///< VELOCITY_FRAME_NED
-  std::uint64_t timestamp = 0;         ///< µs
-  std::uint64_t timestamp_sample = 0;  ///< µs
+  std::uint64_t timestamp = 0;                          ///< µs
+  std::uint64_t timestamp_sample = 0;                   ///< µs
   std::uint8_t pose_frame = 0;
-  std::array<float, 3> position{};          ///< m, in pose_frame
-  std::array<float, 4> q{};                 ///< body FRD → pose frame, Hamilton (w, x, y, z)
+  std::array<float, 3> position{};  ///< m, in pose_frame
+  std::array<float, 4> q{};         ///< body FRD → pose frame, Hamilton (w, x, y, z)
   std::uint8_t velocity_frame = 0;
-  std::array<float, 3> velocity{};          ///< m/s, in velocity_frame
-  std::array<float, 3> angular_velocity{};  ///< rad/s, body FRD
+  std::array<float, 3> velocity{};              ///< m/s, in velocity_frame
+  std::array<float, 3> angular_velocity{};      ///< rad/s, body FRD
   std::array<float, 3> position_variance{};     ///< m²
   std::array<float, 3> orientation_variance{};  ///< rad²
   std::array<float, 3> velocity_variance{};     ///< m²/s²
@@ -144,13 +144,13 @@ RIDGELINE_WIRE_FIELDS(VehicleStatus, "VehicleStatus", timestamp, armed_time, tak
                       arming_state, latest_arming_reason, latest_disarming_reason,
                       nav_state_timestamp, nav_state_user_intention, nav_state,
                       failure_detector_status, hil_state, vehicle_type, failsafe,
-                      failsafe_and_user_took_over, gcs_connection_lost,
-                      gcs_connection_lost_counter, high_latency_data_link_lost, is_vtol,
-                      is_vtol_tailsitter, in_transition_mode, in_transition_to_fw, system_type,
-                      system_id, component_id, safety_button_available, safety_off,
-                      power_input_valid, usb_connected, open_drone_id_system_present,
-                      open_drone_id_system_healthy, parachute_system_present,
-                      parachute_system_healthy, avoidance_system_required, avoidance_system_valid,
-                      rc_calibration_in_progress, calibration_enabled, pre_flight_checks_pass)
+                      failsafe_and_user_took_over, gcs_connection_lost, gcs_connection_lost_counter,
+                      high_latency_data_link_lost, is_vtol, is_vtol_tailsitter, in_transition_mode,
+                      in_transition_to_fw, system_type, system_id, component_id,
+                      safety_button_available, safety_off, power_input_valid, usb_connected,
+                      open_drone_id_system_present, open_drone_id_system_healthy,
+                      parachute_system_present, parachute_system_healthy, avoidance_system_required,
+                      avoidance_system_valid, rc_calibration_in_progress, calibration_enabled,
+                      pre_flight_checks_pass)
 
 }  // namespace ridgeline::transport_dds::px4

@@ -14,6 +14,12 @@
 // value is the value received); meanwhile it publishes the TrajectorySetpoint of its arguments
 // on rt/uav_1/fmu/in/trajectory_setpoint every 50 ms (best effort, volatile, as a companion
 // writes to PX4). It exits 0 one second after it has printed both kinds, 1 after 20 s without.
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -22,12 +28,6 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastrtps/utils/IPLocator.h>
-
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <thread>
 
@@ -89,8 +89,8 @@ int main(int argc, char** argv) {
   setpoint_type.register_type(participant);
   Topic* prediction_topic = participant->create_topic(
       "rt/ridgeline/predicted_trajectory", prediction_type.get_type_name(), TOPIC_QOS_DEFAULT);
-  Topic* threat_topic = participant->create_topic(
-      "rt/ridgeline/threat_report", threat_type.get_type_name(), TOPIC_QOS_DEFAULT);
+  Topic* threat_topic = participant->create_topic("rt/ridgeline/threat_report",
+                                                  threat_type.get_type_name(), TOPIC_QOS_DEFAULT);
   Topic* setpoint_topic = participant->create_topic(
       "rt/uav_1/fmu/in/trajectory_setpoint", setpoint_type.get_type_name(), TOPIC_QOS_DEFAULT);
 
@@ -109,8 +109,7 @@ int main(int argc, char** argv) {
   DataReaderQos threat_qos = DATAREADER_QOS_DEFAULT;
   threat_qos.reliability().kind = RELIABLE_RELIABILITY_QOS;
   threat_qos.history().depth = 16;
-  DataReader* prediction_reader =
-      subscriber->create_datareader(prediction_topic, prediction_qos);
+  DataReader* prediction_reader = subscriber->create_datareader(prediction_topic, prediction_qos);
   DataReader* threat_reader = subscriber->create_datareader(threat_topic, threat_qos);
   DataWriterQos setpoint_qos = DATAWRITER_QOS_DEFAULT;
   setpoint_qos.reliability().kind = BEST_EFFORT_RELIABILITY_QOS;

@@ -28,7 +28,8 @@ transport_dds::DdsOptions dds() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   transport_dds::DdsOptions o;
   o.domain_id = kDomain;
-  o.partition = std::string("ridgeline-fleet-test-") + std::to_string(::getpid()) + "-" + info->name();
+  o.partition =
+      std::string("ridgeline-fleet-test-") + std::to_string(::getpid()) + "-" + info->name();
   return o;
 }
 
@@ -44,8 +45,8 @@ mavlink::SimulatedVehicleOptions vehicle_options(const Vec3& start) {
 struct ServedVehicle {
   ServedVehicle(const std::string& ns, const Vec3& start)
       : vehicle(vehicle_options(start)),
-        link(std::make_shared<transport_dds::DdsParticipant>(dds()), transport_dds::Px4Side::kVehicle,
-             {ns}),
+        link(std::make_shared<transport_dds::DdsParticipant>(dds()),
+             transport_dds::Px4Side::kVehicle, {ns}),
         thread([this] { stats = serve_px4_vehicle_lockstep(vehicle, link, kPeriod, 0.0, stop); }) {}
   ~ServedVehicle() { finish(); }
   /// Stops serving; `stats` is final afterwards.
@@ -67,10 +68,10 @@ std::unique_ptr<Px4Fleet> fleet(const std::vector<std::string>& namespaces, doub
   std::vector<std::string> names;
   for (std::size_t i = 0; i < namespaces.size(); ++i)
     names.push_back("uav" + std::to_string(i + 1) + " (UAV " + std::to_string(i) + ")");
-  return std::make_unique<Px4Fleet>(
-      o, names,
-      std::make_unique<transport_dds::Px4Link>(std::make_shared<transport_dds::DdsParticipant>(dds()),
-                                               transport_dds::Px4Side::kCompanion, namespaces));
+  return std::make_unique<Px4Fleet>(o, names,
+                                    std::make_unique<transport_dds::Px4Link>(
+                                        std::make_shared<transport_dds::DdsParticipant>(dds()),
+                                        transport_dds::Px4Side::kCompanion, namespaces));
 }
 
 TEST(Px4Fleet, VehiclesOnPx4TopicsFlyAsTheirTwinsFedMavlinkDirectly) {
@@ -87,19 +88,19 @@ TEST(Px4Fleet, VehiclesOnPx4TopicsFlyAsTheirTwinsFedMavlinkDirectly) {
   for (const Vec3& s : starts) {
     twins.emplace_back(vehicle_options(s));
     mavlink::SimulatedVehicle& t = twins.back();
-    t.handle_lockstep(mavlink::hold_setpoint(s, 0.0, mavlink::SimulatedVehicle::kKeepAliveStamp, 1, 1),
-                      kPeriod);
+    t.handle_lockstep(
+        mavlink::hold_setpoint(s, 0.0, mavlink::SimulatedVehicle::kKeepAliveStamp, 1, 1), kPeriod);
     t.handle_lockstep(command_long(arm_command(1, 0)), kPeriod);
     t.handle_lockstep(command_long(offboard_command(1, 0)), kPeriod);
     ASSERT_TRUE(t.armed() && t.offboard());
   }
-  const std::vector<mavlink::FleetCommand> commands = {
-      {vehicle::Input(11.0, 0.05, 1.0), false}, {vehicle::Input(9.0, -0.04, -0.5), false}};
+  const std::vector<mavlink::FleetCommand> commands = {{vehicle::Input(11.0, 0.05, 1.0), false},
+                                                       {vehicle::Input(9.0, -0.04, -0.5), false}};
   constexpr int kSteps = 200;
   for (int k = 0; k < kSteps; ++k) {
     for (std::size_t i = 0; i < 2; ++i) {
-      const double heading = mavlink::ned_yaw_to_enu_heading(
-          twins[i].lockstep_state_report().attitude.yaw);
+      const double heading =
+          mavlink::ned_yaw_to_enu_heading(twins[i].lockstep_state_report().attitude.yaw);
       twins[i].handle_lockstep(mavlink::velocity_setpoint(
                                    commands[i].command, heading,
                                    mavlink::SimulatedVehicle::lockstep_stamp_ms(k, kPeriod), 1, 1),
@@ -181,8 +182,8 @@ TEST(Px4Vehicle, OffboardIsRefusedWithoutTheOffboardControlModeStream) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
   while (std::chrono::steady_clock::now() < until) {
     companion.publish(0, trajectory_setpoint(hold, kKeepAliveStampUs));
-    companion.publish(0, armed ? offboard_command(1, kKeepAliveStampUs)
-                               : arm_command(1, kKeepAliveStampUs));
+    companion.publish(
+        0, armed ? offboard_command(1, kKeepAliveStampUs) : arm_command(1, kKeepAliveStampUs));
     companion.wait(0.05);
     got.clear();
     companion.take(got);

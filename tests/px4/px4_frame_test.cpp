@@ -54,7 +54,8 @@ TEST(Px4Frame, ASetpointWithNaNWhereItMattersIsRefusedNamingTheField) {
             "velocity[1] is nan in a velocity setpoint (NaN position)");
   t.velocity[1] = 0.0f;
   t.yawspeed = std::numeric_limits<float>::infinity();
-  EXPECT_EQ(px4::setpoint_from_px4(t).error, "yawspeed is inf in a velocity setpoint (NaN position)");
+  EXPECT_EQ(px4::setpoint_from_px4(t).error,
+            "yawspeed is inf in a velocity setpoint (NaN position)");
   t.yawspeed = 0.0f;
   t.position = {1.0f, 2.0f, kNaN};
   EXPECT_NE(px4::setpoint_from_px4(t).error.find("position and velocity both set"),

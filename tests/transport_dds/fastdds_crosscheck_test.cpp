@@ -66,8 +66,8 @@ TEST(FastDdsCrosscheck, FastDdsReadsOurPredictionsAndThreatsAndWeReadItsPx4Setpo
 
   std::vector<std::string> args = {RIDGELINE_FASTDDS_PEER_PATH, std::to_string(kDomain),
                                    options.partition, std::to_string(expected.timestamp)};
-  for (const auto* v : {&expected.position, &expected.velocity, &expected.acceleration,
-                        &expected.jerk})
+  for (const auto* v :
+       {&expected.position, &expected.velocity, &expected.acceleration, &expected.jerk})
     for (const float x : *v) args.push_back(fmt::format("{:.9g}", x));
   args.push_back(fmt::format("{:.9g}", expected.yaw));
   args.push_back(fmt::format("{:.9g}", expected.yawspeed));

@@ -21,7 +21,8 @@ std::shared_ptr<DdsParticipant> participant() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   DdsOptions o;
   o.domain_id = kDomain;
-  o.partition = std::string("ridgeline-px4-test-") + std::to_string(::getpid()) + "-" + info->name();
+  o.partition =
+      std::string("ridgeline-px4-test-") + std::to_string(::getpid()) + "-" + info->name();
   return std::make_shared<DdsParticipant>(o);
 }
 

@@ -1,6 +1,7 @@
 // ridgeline-idl-writer RIDGELINE.idl PX4_MSGS.idl: writes Ridgeline's DDS IDL and the px4_msgs
-// IDL of PX4's topics (idl_writer.hpp) to the two files, for the build to compile with idlc. Writes a temporary file and renames it, so an interrupted build never
-// leaves a half-written IDL behind.
+// IDL of PX4's topics (idl_writer.hpp) to the two files, for the build to compile with idlc.
+// Writes a temporary file and renames it, so an interrupted build never leaves a half-written
+// IDL behind.
 #include <cstdio>
 #include <exception>
 #include <fstream>
