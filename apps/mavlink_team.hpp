@@ -5,14 +5,13 @@
 // sensors and metrics are `run`'s own; only the UAVs' dynamics live in the vehicles.
 #pragma once
 
-#include <sys/types.h>
-
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "apps/vehicle_processes.hpp"
 #include "mavlink/lockstep_fleet.hpp"
 #include "mission/scenario.hpp"
 #include "sim/external_vehicles.hpp"
@@ -57,15 +56,10 @@ class MavlinkTeam : public sim::ExternalVehicles {
   nlohmann::json to_json() const;
 
  private:
-  struct Process {
-    pid_t pid = -1;
-    std::string status = "external";
-  };
-
   double period_s_;
   double home_altitude_m_;
   std::vector<std::string> names_;
-  std::vector<Process> processes_;
+  VehicleProcesses processes_;
   std::unique_ptr<mavlink::LockstepFleet> fleet_;
   std::vector<mavlink::FleetCommand> commands_;
   std::vector<mavlink::FleetReport> reports_;

@@ -14,7 +14,14 @@
 // `ridgeline vehicle-sim --lockstep` process per UAV (or the lock-step vehicles listed by
 // --mavlink-vehicles), stepped one control period at a time (apps/mavlink_team.hpp). The same
 // outputs, with metrics.json's "mavlink" block (frames, rejected frames, resends, latency).
+//
+// --px4-dds flies the team the same way through PX4's own DDS topics (px4_msgs over uXRCE-DDS,
+// rt/uav_N/fmu/...): one `ridgeline vehicle-sim --px4-dds --lockstep` process per UAV (or, with
+// --px4-external, the PX4s already on the domain), apps/px4_team.hpp; metrics.json gets
+// "px4_dds".
 #include <fmt/format.h>
+
+#include <unistd.h>
 
 #include <cmath>
 #include <iostream>
@@ -23,6 +30,7 @@
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "apps/mavlink_team.hpp"
+#include "apps/px4_team.hpp"
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
 #include "io/geo_export.hpp"
@@ -71,6 +79,12 @@ void register_run_command(CLI::App& app) {
     bool mavlink = false;
     std::vector<std::string> mavlink_vehicles;
     double mavlink_timeout_s = 10.0;
+    bool px4_dds = false;
+    std::vector<std::string> px4_namespaces;
+    bool px4_external = false;
+    double px4_timeout_s = 10.0;
+    std::optional<int> domain_id;
+    std::optional<std::string> partition;
   };
   auto args = std::make_shared<Args>();
   CLI::App* run =
@@ -96,8 +110,40 @@ void register_run_command(CLI::App& app) {
   run->add_option("--mavlink-timeout", args->mavlink_timeout_s,
                   "With --mavlink: seconds a vehicle may take to answer a step (its start: 3x)")
       ->capture_default_str();
+  run->add_flag("--px4-dds", args->px4_dds,
+                "Fly every UAV through PX4's own DDS topics (px4_msgs, PX4 v1.14; one `vehicle-sim "
+                "--px4-dds --lockstep` process each), in lock step");
+  run->add_option("--px4-namespaces", args->px4_namespaces,
+                  "With --px4-dds: each UAV's PX4 namespace in the scenario's order "
+                  "(comma-separated; default uav_1,uav_2,...)")
+      ->delimiter(',');
+  run->add_flag("--px4-external", args->px4_external,
+                "With --px4-dds: fly lock-step vehicles already on the DDS domain instead of "
+                "spawning them");
+  run->add_option("--px4-timeout", args->px4_timeout_s,
+                  "With --px4-dds: seconds a vehicle may take to answer a step (its start: 3x)")
+      ->capture_default_str();
+  run->add_option("--domain-id", args->domain_id,
+                  "With --px4-dds: DDS domain id (default: 100 + pid mod 100; PX4's is 0)");
+  run->add_option("--partition", args->partition,
+                  "With --px4-dds: DDS partition (default: one of this run; \"\" is PX4's)");
   run->callback([args] {
     const sim::Method method = sim::parse_method(args->method);
+    if (!args->px4_dds) {
+      const std::pair<const char*, bool> needs_px4[] = {
+          {"--px4-namespaces", !args->px4_namespaces.empty()},
+          {"--px4-external", args->px4_external},
+          {"--domain-id", args->domain_id.has_value()},
+          {"--partition", args->partition.has_value()}};
+      for (const auto& [option, given] : needs_px4)
+        if (given) throw InputError(option, "needs --px4-dds");
+    }
+    if (args->px4_dds && args->mavlink)
+      throw InputError("--px4-dds", "cannot be combined with --mavlink (one wire at a time)");
+    if (args->px4_dds && args->variation)
+      throw InputError("--variation",
+                       "cannot be combined with --px4-dds yet (the vehicles fly the scenario as "
+                       "written)");
     if (!args->mavlink && !args->mavlink_vehicles.empty())
       throw InputError("--mavlink-vehicles", "needs --mavlink");
     if (args->mavlink && args->variation)
@@ -149,6 +195,27 @@ void register_run_command(CLI::App& app) {
                                mo.vehicle_addresses.empty() ? "vehicle-sim processes"
                                                             : "at the given addresses");
     }
+    std::unique_ptr<Px4Team> px4_team;
+    if (args->px4_dds) {
+      Px4TeamOptions po;
+      po.scenario_path = args->scenario;
+      po.namespaces = args->px4_namespaces;
+      po.external = args->px4_external;
+      po.timeout_s = args->px4_timeout_s;
+      const int pid = static_cast<int>(::getpid());
+      po.dds.domain_id = args->domain_id.value_or(100 + pid % 100);
+      po.dds.partition = args->partition.value_or(fmt::format("ridgeline-px4-{}", pid));
+      if (!po.external) {
+        po.log_dir = dir / "logs";
+        std::filesystem::create_directories(po.log_dir);
+      }
+      px4_team = std::make_unique<Px4Team>(flown_scenario, po);
+      options.vehicles = px4_team.get();
+      std::cerr << fmt::format(
+          "run: {} UAVs through PX4's DDS topics (domain {}, partition '{}'; {}), lock step\n",
+          flown_scenario.uavs.size(), po.dds.domain_id, po.dds.partition,
+          po.external ? "vehicles already running" : "vehicle-sim processes");
+    }
     const mission::MissionResult flown =
         sim::fly_mission(flown_scenario, loaded.terrain, *plan, options);
     if (!args->quiet) std::cerr << '\n';
@@ -170,6 +237,15 @@ void register_run_command(CLI::App& app) {
           t["frames_sent"].get<std::uint64_t>(), t["frames_received"].get<std::uint64_t>(),
           t["frames_rejected"].get<std::uint64_t>(), t["checksum_errors"].get<std::uint64_t>(),
           t["resends"].get<std::uint64_t>());
+    }
+    if (px4_team) {
+      px4_team->stop_vehicles();
+      metrics["px4_dds"] = px4_team->to_json();
+      const nlohmann::json& t = metrics["px4_dds"];
+      std::cout << fmt::format(
+          "px4_dds: {} samples sent, {} received, {} odometry rejected, {} resends\n",
+          t["samples_sent"].get<std::uint64_t>(), t["samples_received"].get<std::uint64_t>(),
+          t["odometry_rejected"].get<std::uint64_t>(), t["resends"].get<std::uint64_t>());
     }
     summary["flight"] = {{"mission_complete", m.mission_complete},
                          {"safe", m.safe()},

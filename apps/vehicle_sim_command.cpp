@@ -14,6 +14,12 @@
 // lock step); --peer HOST:PORT: where it announces itself until a companion talks to it;
 // --udp 0 takes any free port (printed); --cruise-start: it leaves the hover at the scenario's
 // start speed when offboard starts, as the mission's truth starts a UAV.
+//
+// --px4-dds (with --lockstep): the same vehicle on PX4's own DDS topics instead of MAVLink
+// (px4/px4_vehicle.hpp): it reads rt/<ns>/fmu/in/{offboard_control_mode, trajectory_setpoint,
+// vehicle_command} and answers on rt/<ns>/fmu/out/{vehicle_status, vehicle_odometry}, ns the
+// --px4-namespace (uav_N; "" for none), in DDS domain --domain-id and partition --partition, as
+// `ridgeline run --px4-dds` drives it.
 #include <csignal>
 #include <iostream>
 
@@ -24,6 +30,8 @@
 #include "apps/mavlink_team.hpp"
 #include "core/error.hpp"
 #include "mavlink/udp_session.hpp"
+#include "px4/px4_vehicle.hpp"
+#include "transport_dds/px4_link.hpp"
 
 namespace ridgeline::apps {
 namespace {
@@ -43,12 +51,27 @@ void register_vehicle_sim_command(CLI::App& app) {
     bool wind = false;
     bool cruise_start = false;
     std::string peer;
+    bool px4_dds = false;
+    std::string px4_namespace = "uav_1";
+    int domain_id = 0;
+    std::string partition;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "vehicle-sim", "A MAVLink vehicle on 127.0.0.1 UDP for `ridgeline fly` (stand-in for PX4 SITL)");
-  cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1; 0: any free port)")
-      ->required();
+  CLI::Option* udp =
+      cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1; 0: any free port)");
+  CLI::Option* px4_dds = cmd->add_flag(
+      "--px4-dds", args->px4_dds,
+      "Serve PX4's uXRCE-DDS topics (px4_msgs, PX4 v1.14) instead of MAVLink (with --lockstep)");
+  udp->excludes(px4_dds);
+  cmd->add_option("--px4-namespace", args->px4_namespace,
+                  "With --px4-dds: the vehicle's namespace (uav_N; \"\" for none)")
+      ->capture_default_str();
+  cmd->add_option("--domain-id", args->domain_id, "With --px4-dds: DDS domain id (PX4's: 0)")
+      ->capture_default_str();
+  cmd->add_option("--partition", args->partition,
+                  "With --px4-dds: DDS partition (empty: the default partition, as PX4 uses)");
   cmd->add_flag("--lockstep", args->lockstep,
                 "Lock step: advance one control period per setpoint stamped with its time");
   cmd->add_option("--peer", args->peer, "HOST:PORT to announce itself to until a companion talks");
@@ -60,7 +83,16 @@ void register_vehicle_sim_command(CLI::App& app) {
   cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   cmd->add_option("--duration", args->duration_s, "Seconds to run (0: until interrupted)")
       ->capture_default_str();
-  cmd->callback([args] {
+  cmd->callback([args, udp] {
+    if (!args->px4_dds && udp->count() == 0)
+      throw InputError("--udp", "is required (or --px4-dds)");
+    if (args->px4_dds && !args->lockstep)
+      throw InputError("--px4-dds",
+                       "needs --lockstep (a real-time vehicle on PX4's topics is not implemented)");
+    if (args->px4_dds) {
+      if (auto reason = transport_dds::check_px4_namespace(args->px4_namespace))
+        throw InputError("--px4-namespace", *reason);
+    }
     if (args->port < 0 || args->port > 65535)
       throw InputError("--udp",
                        fmt::format("port {} is not in 1..65535 (or 0: any free port)", args->port));
@@ -94,11 +126,37 @@ void register_vehicle_sim_command(CLI::App& app) {
     if (args->wind) o.wind = sc.wind;
     if (args->cruise_start) o.offboard_entry_speed_m_s = uav.start_speed_m_s;
     mavlink::SimulatedVehicle vehicle(o);
+    std::signal(SIGINT, request_stop);
+    std::signal(SIGTERM, request_stop);
+    if (args->px4_dds) {
+      transport_dds::DdsOptions dds;
+      dds.domain_id = args->domain_id;
+      dds.partition = args->partition;
+      transport_dds::Px4Link link(std::make_shared<transport_dds::DdsParticipant>(dds),
+                                  transport_dds::Px4Side::kVehicle, {args->px4_namespace});
+      std::cerr << fmt::format(
+          "vehicle-sim: {} ({}) on PX4's DDS topics rt/{}fmu/ (domain {}, partition '{}') in "
+          "lock step\n",
+          uav.name, args->uav, args->px4_namespace.empty() ? "" : args->px4_namespace + "/",
+          dds.domain_id, dds.partition);
+      const px4::Px4VehicleStats s = px4::serve_px4_vehicle_lockstep(
+          vehicle, link, sc.mpc.control_period_s, args->duration_s, g_stop);
+      const mavlink::SimulatedVehicleStats& v = vehicle.stats();
+      std::cout << fmt::format(
+          "vehicle-sim: {:.1f} s; received {} offboard_control_mode, {} trajectory_setpoint ({} "
+          "rejected), {} vehicle_command ({} refused, {} refused by the vehicle); {} lock-step "
+          "steps ({} resent, {} out of step); {} replies; final position ENU ({:.1f}, {:.1f}, "
+          "{:.1f}) m{}\n",
+          s.wall_time_s, s.offboard_control_modes, s.setpoints, s.setpoints_rejected, s.commands,
+          s.commands_refused, v.commands_refused, v.lockstep_steps, v.lockstep_duplicates,
+          v.lockstep_out_of_step, s.replies, vehicle.state()[vehicle::kX],
+          vehicle.state()[vehicle::kY], vehicle.state()[vehicle::kZ],
+          s.last_rejection.empty() ? "" : "; last rejection: " + s.last_rejection);
+      return;
+    }
     mavlink::UdpLink link =
         mavlink::UdpLink::listen("127.0.0.1", static_cast<std::uint16_t>(args->port));
     if (peer) link.set_peer(peer->first, peer->second);
-    std::signal(SIGINT, request_stop);
-    std::signal(SIGTERM, request_stop);
     std::cerr << fmt::format("vehicle-sim: {} ({}) listening on 127.0.0.1:{}{}\n", uav.name,
                              args->uav, link.local_port(),
                              args->lockstep ? " in lock step" : "");

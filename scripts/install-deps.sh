@@ -18,6 +18,9 @@ packages=(
   cyclonedds-dev cyclonedds-tools  # DDS transport between processes (library; idlc, ddsperf)
   libtorch-dev             # DDPG comparison method (src/learning): training and --method ddpg
   libgtest-dev libgmock-dev libbenchmark-dev
+  # A second DDS implementation for the tests (tests/fastdds/): eProsima Fast DDS, which ROS 2
+  # and PX4's uXRCE-DDS agent use, and its IDL compiler; fastddsgen is a Java program.
+  libfastrtps-dev libfastcdr-dev fastddsgen default-jre-headless
 )
 # With --test (make test), also what only the tests use.
 test_packages=(

@@ -224,11 +224,14 @@ void SimulatedVehicle::handle_lockstep(const Message& message, double period_s) 
   }
 }
 
+StateReport SimulatedVehicle::lockstep_state_report() const {
+  return report_state(state_, wind_at_vehicle(),
+                      lockstep_stamp_ms(lockstep_step_, lockstep_period_s_), o_.home_altitude_m);
+}
+
 void SimulatedVehicle::lockstep_reply(std::vector<EncodedFrame>& out) {
   out.push_back(encode_message(heartbeat(), next_header()));
-  const StateReport r =
-      report_state(state_, wind_at_vehicle(),
-                   lockstep_stamp_ms(lockstep_step_, lockstep_period_s_), o_.home_altitude_m);
+  const StateReport r = lockstep_state_report();
   out.push_back(encode_message(r.position, next_header()));
   out.push_back(encode_message(r.attitude, next_header()));
 }

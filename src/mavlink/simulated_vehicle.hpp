@@ -40,6 +40,7 @@
 
 #include "mavlink/frame.hpp"
 #include "mavlink/messages.hpp"
+#include "mavlink/ned_frame.hpp"
 #include "vehicle/vehicle_model.hpp"
 #include "world/wind.hpp"
 
@@ -96,6 +97,9 @@ class SimulatedVehicle {
   void handle_lockstep(const Message& message, double period_s);
   /// Lock step: the answer to a datagram (HEARTBEAT, LOCAL_POSITION_NED, ATTITUDE at ms(k)).
   void lockstep_reply(std::vector<EncodedFrame>& out);
+  /// Lock step: the state report of that answer (LOCAL_POSITION_NED and ATTITUDE at ms(k)), for
+  /// a vehicle that answers on another wire (PX4's DDS topics, px4/px4_vehicle.hpp).
+  StateReport lockstep_state_report() const;
   /// ms(k) = round(1000·k·period_s): a lock-step time stamp (shared with the companion).
   static std::uint32_t lockstep_stamp_ms(std::uint64_t step, double period_s);
 
@@ -104,6 +108,8 @@ class SimulatedVehicle {
   bool offboard() const { return offboard_; }
   bool holding() const { return holding_; }
   double time_s() const { return t_; }
+  /// How recent the offboard stream must be for offboard (PX4's offboard loss timeout).
+  double setpoint_timeout_s() const { return o_.setpoint_timeout_s; }
   const SimulatedVehicleStats& stats() const { return stats_; }
 
  private:

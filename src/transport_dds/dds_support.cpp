@@ -35,6 +35,16 @@ dds_qos_t* make_qos(TopicQos qos, int depth, bool reader, const std::string& par
       dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
       dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
       break;
+    case TopicQos::kPx4Publisher:
+      dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+      dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+      break;
+    case TopicQos::kPx4Subscriber:
+      dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+      dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+      dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+      break;
   }
   if (reader) dds_qset_ignorelocal(q, DDS_IGNORELOCAL_PARTICIPANT);
   return q;

@@ -9,6 +9,7 @@
 #pragma once
 
 #include "messages/messages.hpp"
+#include "transport_dds/px4_messages.hpp"
 #include "transport_dds/sim_messages.hpp"
 
 namespace ridgeline::transport_dds {
@@ -17,6 +18,11 @@ enum class TopicQos {
   kLatestBestEffort,  ///< best effort, keep last 1 (per key)
   kReliable,          ///< reliable, keep last `depth` (per key)
   kReliableLatched,   ///< reliable, transient local, keep last 1 per key
+  /// PX4's uXRCE-DDS bridge: its publishers (fmu/out) are best effort + transient local and its
+  /// subscribers (fmu/in) best effort + volatile, keep last 1. Both ends of a PX4 topic use
+  /// its class, as a ROS 2 node talking to PX4 does.
+  kPx4Publisher,
+  kPx4Subscriber,
 };
 
 struct TopicSpec {
@@ -96,6 +102,47 @@ struct Topic<CommandReport> {
       "world records of the agent (mode 0 "
       "tracking, 1 fallback, 2 finished; reference, MPC step, counters). hello marks an agent's "
       "announcement before its first tick. Reliable, keep last 4 per UAV."};
+};
+
+// PX4's topics (px4_messages.hpp). The names are those of a vehicle without a namespace; a
+// vehicle in namespace uav_N has them under rt/uav_N/fmu/ (px4_link.hpp: px4_topic_name).
+template <>
+struct Topic<px4::OffboardControlMode> {
+  static constexpr TopicSpec spec{
+      "rt/fmu/in/offboard_control_mode", TopicQos::kPx4Subscriber, 1, "",
+      "The companion's offboard heartbeat: which setpoint kind it streams (here velocity). PX4 "
+      "enters and stays in offboard only while it arrives."};
+};
+
+template <>
+struct Topic<px4::TrajectorySetpoint> {
+  static constexpr TopicSpec spec{
+      "rt/fmu/in/trajectory_setpoint", TopicQos::kPx4Subscriber, 1, "",
+      "The companion's setpoint, NED: velocity + yawspeed with NaN positions (the command u), "
+      "or a position with NaN velocity (hold). In lock step its timestamp is the vehicle's time."};
+};
+
+template <>
+struct Topic<px4::VehicleCommand> {
+  static constexpr TopicSpec spec{
+      "rt/fmu/in/vehicle_command", TopicQos::kPx4Subscriber, 1, "",
+      "Arm (VEHICLE_CMD_COMPONENT_ARM_DISARM, param1 1) and offboard (VEHICLE_CMD_DO_SET_MODE, "
+      "param1 1, param2 6), repeated until vehicle_status shows them done."};
+};
+
+template <>
+struct Topic<px4::VehicleOdometry> {
+  static constexpr TopicSpec spec{
+      "rt/fmu/out/vehicle_odometry", TopicQos::kPx4Publisher, 1, "",
+      "The vehicle's position and velocity (NED about home), attitude quaternion and body rates; "
+      "in lock step its timestamp is the vehicle's time after the step."};
+};
+
+template <>
+struct Topic<px4::VehicleStatus> {
+  static constexpr TopicSpec spec{
+      "rt/fmu/out/vehicle_status", TopicQos::kPx4Publisher, 1, "",
+      "The vehicle's arming state and navigation mode (offboard = 14)."};
 };
 
 }  // namespace ridgeline::transport_dds

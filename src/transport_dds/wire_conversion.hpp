@@ -4,7 +4,8 @@
 // C++ and the C struct have the same field names, so a field the list names but the IDL lacks
 // (or the reverse) does not compile. For this folder's .cpp files.
 //
-// Mapping (idl_writer.hpp writes the same): bool, int32, int64, uint64, double as themselves;
+// Mapping (idl_writer.hpp writes the same): bool, (u)int8 … (u)int64, float, double as
+// themselves; std::array<T, N> as T[N];
 // an enum as its underlying int32; Vec3 (any 3-vector of doubles) as Vector3_; another fixed
 // vector of N doubles as double[N]; std::string as string; std::vector<T> as sequence<T>; a
 // WireStruct as its own struct.
@@ -12,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -33,6 +35,14 @@ template <int N, int Options, int MaxRows, int MaxCols>
 struct FixedVector<Eigen::Matrix<double, N, 1, Options, MaxRows, MaxCols>> : std::true_type {
   static_assert(N > 0, "only fixed-size vectors go on the wire");
   static constexpr int size = N;
+};
+
+/// std::array<T, N>: an IDL array T name[N] (px4_msgs' float32[3], ...).
+template <class T>
+struct StdArray : std::false_type {};
+template <class T, std::size_t N>
+struct StdArray<std::array<T, N>> : std::true_type {
+  static constexpr std::size_t size = N;
 };
 
 template <class T>
@@ -80,6 +90,9 @@ void to_wire(const C& c, W& w, WireArena& arena) {
     w._maximum = w._length = static_cast<std::uint32_t>(c.size());
     w._buffer = buffer;
     w._release = false;
+  } else if constexpr (StdArray<C>::value) {
+    static_assert(std::extent_v<W> == StdArray<C>::size, "IDL array of another length");
+    for (std::size_t k = 0; k < StdArray<C>::size; ++k) to_wire(c[k], w[k], arena);
   } else if constexpr (FixedVector<C>::value) {
     if constexpr (std::is_array_v<W>) {
       static_assert(std::extent_v<W> == FixedVector<C>::size, "IDL array of another length");
@@ -123,6 +136,9 @@ std::optional<std::string> from_wire(const W& w, C& c, std::uint32_t max_length,
     c.resize(w._length);
     for (std::uint32_t k = 0; k < w._length; ++k)
       if (auto error = from_wire(w._buffer[k], c[k], max_length, field)) return error;
+  } else if constexpr (StdArray<C>::value) {
+    static_assert(std::extent_v<W> == StdArray<C>::size, "IDL array of another length");
+    for (std::size_t k = 0; k < StdArray<C>::size; ++k) c[k] = w[k];
   } else if constexpr (FixedVector<C>::value) {
     if constexpr (std::is_array_v<W>) {
       static_assert(std::extent_v<W> == FixedVector<C>::size, "IDL array of another length");

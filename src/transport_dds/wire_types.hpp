@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "transport_dds/dds_support.hpp"
+#include "transport_dds/px4_msgs.h"
 #include "transport_dds/ridgeline_msgs.h"
 #include "transport_dds/topics.hpp"
 #include "transport_dds/wire_conversion.hpp"
@@ -21,24 +22,29 @@ namespace ridgeline::transport_dds {
 template <class M>
 struct WireType;
 
-// idlc names a struct ridgeline::msg::dds_::Name_ as ridgeline_msg_dds__Name_.
-#define RIDGELINE_WIRE_TYPE(Message, Name)                                        \
+// idlc names a struct package::msg::dds_::Name_ as package_msg_dds__Name_.
+#define RIDGELINE_WIRE_TYPE(Message, package, Name)                               \
   template <>                                                                     \
   struct WireType<Message> {                                                      \
     static_assert(std::string_view(messages::WireFields<Message>::name) == #Name, \
                   "the wire name in RIDGELINE_WIRE_FIELDS and here differ");      \
-    using Sample = ridgeline_msg_dds__##Name##_;                                  \
+    using Sample = package##_msg_dds__##Name##_;                                  \
     static const dds_topic_descriptor_t* descriptor() {                           \
-      return &ridgeline_msg_dds__##Name##__desc;                                  \
+      return &package##_msg_dds__##Name##__desc;                                  \
     }                                                                             \
   };
-RIDGELINE_WIRE_TYPE(messages::PredictedTrajectory, PredictedTrajectory)
-RIDGELINE_WIRE_TYPE(messages::ThreatReport, ThreatReport)
-RIDGELINE_WIRE_TYPE(messages::StateReport, State)
-RIDGELINE_WIRE_TYPE(messages::ReferencePlan, ReferencePlan)
-RIDGELINE_WIRE_TYPE(ClockTick, Clock)
-RIDGELINE_WIRE_TYPE(Measurement, Measurement)
-RIDGELINE_WIRE_TYPE(CommandReport, Command)
+RIDGELINE_WIRE_TYPE(messages::PredictedTrajectory, ridgeline, PredictedTrajectory)
+RIDGELINE_WIRE_TYPE(messages::ThreatReport, ridgeline, ThreatReport)
+RIDGELINE_WIRE_TYPE(messages::StateReport, ridgeline, State)
+RIDGELINE_WIRE_TYPE(messages::ReferencePlan, ridgeline, ReferencePlan)
+RIDGELINE_WIRE_TYPE(ClockTick, ridgeline, Clock)
+RIDGELINE_WIRE_TYPE(Measurement, ridgeline, Measurement)
+RIDGELINE_WIRE_TYPE(CommandReport, ridgeline, Command)
+RIDGELINE_WIRE_TYPE(px4::OffboardControlMode, px4_msgs, OffboardControlMode)
+RIDGELINE_WIRE_TYPE(px4::TrajectorySetpoint, px4_msgs, TrajectorySetpoint)
+RIDGELINE_WIRE_TYPE(px4::VehicleCommand, px4_msgs, VehicleCommand)
+RIDGELINE_WIRE_TYPE(px4::VehicleOdometry, px4_msgs, VehicleOdometry)
+RIDGELINE_WIRE_TYPE(px4::VehicleStatus, px4_msgs, VehicleStatus)
 #undef RIDGELINE_WIRE_TYPE
 
 /// M's topic (topics.hpp) on `participant`.

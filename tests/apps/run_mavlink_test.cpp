@@ -23,39 +23,18 @@
 #include <thread>
 
 #include "mavlink/udp_link.hpp"
+#include "support/cli_run.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-int run_cli(const std::string& args, const fs::path& log) {
-  // `timeout` guards the test against a hang whatever the program does (it has its own).
-  const std::string cmd = "timeout -k 5 300 " + std::string(RIDGELINE_CLI_PATH) + " " + args +
-                          " >" + log.string() + " 2>&1 </dev/null";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-json read_json(const fs::path& p) { return json::parse(slurp(p)); }
-
-/// The default scenario with its mission cut to `duration_s` seconds.
-fs::path short_default_scenario(const fs::path& dir, int duration_s) {
-  EXPECT_EQ(run_cli("scenario default", dir / "default.yaml"), 0);
-  const std::string text =
-      std::regex_replace(slurp(dir / "default.yaml"), std::regex("duration_s: 600"),
-                         "duration_s: " + std::to_string(duration_s));
-  EXPECT_NE(text.find("duration_s: " + std::to_string(duration_s)), std::string::npos);
-  const fs::path p = dir / "short.yaml";
-  std::ofstream(p) << text;
-  return p;
-}
+using ridgeline::testing_support::read_json;
+using ridgeline::testing_support::relative;
+using ridgeline::testing_support::run_cli;
+using ridgeline::testing_support::short_default_scenario;
+using ridgeline::testing_support::slurp;
 
 /// scripts/geo_example.sh's scenario (an EPSG:4326 valley DEM, a geodetic origin with its home
 /// at 800 m above sea level, z above mean sea level) with the mission cut to 30 s.
@@ -97,8 +76,6 @@ int announced_port(const fs::path& log) {
   }
   return 0;
 }
-
-double relative(double a, double b) { return std::abs(a - b) / std::max(std::abs(a), 1e-12); }
 
 /// Flies `scenario` in process into DIR/run and through vehicle-sim processes into DIR/mav.
 void fly_both_ways(const fs::path& dir, const fs::path& scenario) {

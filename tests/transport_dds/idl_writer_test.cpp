@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <regex>
 #include <string>
@@ -138,6 +139,46 @@ TEST(WireConversion, ASequenceLongerThanTheBoundOrWithoutDataIsRefusedNamingTheF
   EXPECT_EQ(*reason, "threats: 4000000000 elements, at most 1000");
   w.threats._length = 3;  // and no buffer
   EXPECT_EQ(from_wire(w, m, 1000).value_or(""), "threats: 3 elements without data");
+}
+
+// PX4's px4_msgs (PX4 v1.14) in their own module, with PX4's field types (float32[3] as
+// float[3], uint8, int8, uint16, uint32, uint64), every field in its message's order, and the
+// QoS of PX4's publishers and subscribers.
+TEST(IdlWriter, Px4MessagesAreInPx4MsgsModuleWithPx4sFieldTypesAndQos) {
+  const std::string idl = px4_msgs_idl();
+  EXPECT_NE(idl.find("module px4_msgs {\nmodule msg {\nmodule dds_ {"), std::string::npos);
+  EXPECT_EQ(idl.find("module ridgeline"), std::string::npos);
+  EXPECT_NE(idl.find("// Topic rt/fmu/in/trajectory_setpoint, best effort, volatile, keep last 1 "
+                     "(PX4's subscribers)."),
+            std::string::npos);
+  EXPECT_NE(idl.find("// Topic rt/fmu/out/vehicle_odometry, best effort, transient local, keep "
+                     "last 1 (PX4's publishers)."),
+            std::string::npos);
+  for (const char* topic : {"rt/fmu/in/offboard_control_mode", "rt/fmu/in/vehicle_command",
+                            "rt/fmu/out/vehicle_status"})
+    EXPECT_NE(idl.find(std::string("// Topic ") + topic + ","), std::string::npos) << topic;
+  const std::string setpoint = struct_body(idl, "TrajectorySetpoint_");
+  EXPECT_NE(setpoint.find("  uint64 timestamp;\n  float position[3];\n  float velocity[3];\n  "
+                          "float acceleration[3];\n  float jerk[3];\n  float yaw;\n  float "
+                          "yawspeed;\n"),
+            std::string::npos)
+      << setpoint;
+  const std::string odometry = struct_body(idl, "VehicleOdometry_");
+  EXPECT_NE(odometry.find("uint8 pose_frame;\n  float position[3];\n  float q[4];"),
+            std::string::npos)
+      << odometry;
+  EXPECT_NE(odometry.find("uint8 reset_counter;\n  int8 quality;\n"), std::string::npos);
+  const std::string command = struct_body(idl, "VehicleCommand_");
+  EXPECT_NE(command.find("double param5;\n  double param6;\n  float param7;\n  uint32 command;"),
+            std::string::npos)
+      << command;
+  const std::string status = struct_body(idl, "VehicleStatus_");
+  EXPECT_NE(status.find("uint16 failure_detector_status;"), std::string::npos);
+  EXPECT_NE(status.find("boolean pre_flight_checks_pass;\n"), std::string::npos);
+  // PX4's topics have no key.
+  EXPECT_EQ(idl.find("@key"), std::string::npos);
+  // VehicleStatus has 37 fields in v1.14: one declaration a line.
+  EXPECT_EQ(std::count(status.begin(), status.end(), ';'), 37);
 }
 
 }  // namespace
