@@ -196,13 +196,17 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   // 2. Initial paths through each UAV's targets.
   stage = Clock::now();
   PathSearchOptions search = options.search;
-  double max_pitch_rad = kPi / 2;
+  // The profile's grade: the team's flyable grade (pitch, and climb at v0 − Δv, eq. 2) times
+  // the optimizer's grade_fraction, the room the time parametrization's corner arcs need (each
+  // steepens its stretch by the length it cuts), so the initial paths are flyable as a fallback.
+  double max_grade = std::numeric_limits<double>::infinity();
   double min_turn_radius_m = 0.0;
   for (const PlannerUav& u : problem.uavs) {
-    max_pitch_rad = std::min(max_pitch_rad, u.vehicle.max_pitch_rad);
+    max_grade = std::min({max_grade, std::tan(u.vehicle.max_pitch_rad),
+                          u.vehicle.max_climb_rate_m_s / u.vehicle.min_speed_m_s()});
     min_turn_radius_m = std::max(min_turn_radius_m, u.vehicle.min_turn_radius_m);
   }
-  search.max_pitch_rad = max_pitch_rad;
+  search.max_pitch_rad = std::atan(options.optimizer.grade_fraction * max_grade);
   search.turn_margin_m = std::max(search.turn_margin_m, min_turn_radius_m);
   std::vector<const PlannerUav*> flying;          // per plan.uavs entry
   std::vector<std::vector<int>> target_indices;  // per plan.uavs entry: targets on its path
@@ -258,6 +262,7 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
     TrajectoryOptimizerOptions optimizer = options.optimizer;
     optimizer.validation_terrain_step_m = options.validation_step_m;
     optimizer.validation_separation_period_s = options.timing.control_period_s;
+    optimizer.timing = options.timing;
     plan.optimization = optimize_trajectories(trajectory_problem, optimizer);
     plan.optimization_time_s = seconds_since(stage);
 
