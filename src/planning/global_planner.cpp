@@ -131,18 +131,18 @@ struct StageFailure {
   std::string message;
 };
 
-// Stage 4: each UAV's waypoints into its reference, at cruise (times == nullptr) or passing
-// waypoint k at times[i][k] (timed mode). A limit the reference would break is a failure.
+// Stage 4: each UAV's waypoints into its reference, at cruise (timed == nullptr), or the
+// optimizer's timed references (time_parametrize_timed with the same options, passing waypoint k
+// at its grid time). A limit the reference would break is a failure.
 StageFailure time_references(const std::vector<const PlannerUav*>& vehicles,
-                             const std::vector<std::vector<double>>* times,
+                             const std::vector<TimeParametrizationResult>* timed,
                              const GlobalPlannerOptions& options, std::vector<UavPlan>& uavs) {
   for (std::size_t i = 0; i < uavs.size(); ++i) {
     UavPlan& uav_plan = uavs[i];
     const vehicle::VehicleParams& vehicle = vehicles[i]->vehicle;
-    uav_plan.timing = times == nullptr
+    uav_plan.timing = timed == nullptr
                           ? time_parametrize(uav_plan.waypoints_m, vehicle, options.timing)
-                          : time_parametrize_timed(uav_plan.waypoints_m, (*times)[i], vehicle,
-                                                   options.timing);
+                          : (*timed)[i];
     if (uav_plan.timing.status == TimeParametrizationStatus::kInvalidInput ||
         !uav_plan.timing.reference)
       return {GlobalPlanStatus::kInvalidInput, uav_plan.name + ": " + uav_plan.timing.message};
@@ -269,13 +269,10 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
     std::string reason;
     if (plan.optimization->ok()) {
       std::vector<UavPlan> optimized = plan.uavs;
-      std::vector<std::vector<double>> times;
-      for (std::size_t i = 0; i < optimized.size(); ++i) {
+      for (std::size_t i = 0; i < optimized.size(); ++i)
         optimized[i].waypoints_m = plan.optimization->paths[i].waypoints_m;
-        times.push_back(plan.optimization->paths[i].times_s);
-      }
       stage = Clock::now();
-      StageFailure failure = time_references(flying, &times, options, optimized);
+      StageFailure failure = time_references(flying, &plan.optimization->timing, options, optimized);
       plan.timing_time_s = seconds_since(stage);
       if (failure.status == GlobalPlanStatus::kPlanned) {
         stage = Clock::now();

@@ -960,9 +960,10 @@ std::string TrajectoryNlp::describe(const Row& row) const {
       return fmt::format("climb rate (eq. 2) of UAV {} on segment {} (t = {:.1f} s)", name, row.k,
                          row.k * dt);
     case RowKind::kGrade:
-      return fmt::format("grade (pitch and climb limits, eq. 2) of UAV {} on segment {} (t = "
-                         "{:.1f} s)",
-                         name, row.k, row.k * dt);
+      return fmt::format(
+          "grade (pitch and climb limits, eq. 2) of UAV {} on segment {} (t = "
+          "{:.1f} s)",
+          name, row.k, row.k * dt);
     case RowKind::kPitchUp:
     case RowKind::kPitchDown:
       return fmt::format("pitch slack (eq. 16) of UAV {} on segment {}", name, row.k);

@@ -393,16 +393,33 @@ struct GradeExcess {
   std::string description;
 };
 
-// Times every UAV's solution as stage 4 of the global planner will (time_parametrize_timed) and
-// returns the UAVs with a pitch or climb-rate violation, each with its largest excess.
-std::vector<GradeExcess> unflyable_grades(const TrajectoryProblem& problem,
-                                          const std::vector<TimedPath>& paths,
-                                          const TimeParametrizationOptions& timing) {
-  std::vector<GradeExcess> out;
+// The solution as stage 4 of the global planner will fly it (time_parametrize_timed): the UAVs
+// with a pitch or climb-rate violation, each with its largest excess, and the dense check of the
+// flown references themselves (their rounded corners and timing errors move them off the
+// waypoints' straight, linearly timed segments), each violation placed on the grid step of its
+// time, where refine_where_broken adds rows.
+struct FlownCheck {
+  std::vector<TimeParametrizationResult> timing;  // per UAV
+  std::vector<GradeExcess> steep;
+  PlanValidationReport validation;
+};
+
+FlownCheck check_flown(const TrajectoryProblem& problem, const std::vector<TimedPath>& paths,
+                       const TrajectoryOptimizerOptions& options, const TeamGrid& team,
+                       const PlanValidationOptions& validation) {
+  FlownCheck out;
+  std::vector<TimedPath> flown(paths.size());
   for (std::size_t i = 0; i < paths.size(); ++i) {
     const vehicle::VehicleParams& v = problem.uavs[i].vehicle;
-    const TimeParametrizationResult r =
-        time_parametrize_timed(paths[i].waypoints_m, paths[i].times_s, v, timing);
+    const TimeParametrizationResult& r = out.timing.emplace_back(
+        time_parametrize_timed(paths[i].waypoints_m, paths[i].times_s, v, options.timing));
+    flown[i].name = paths[i].name;
+    if (r.samples.empty()) {
+      flown[i] = paths[i];  // no reference (invalid input): stage 4 reports it
+    } else {
+      flown[i].times_s = r.sample_times_s;
+      for (const auto& sample : r.samples) flown[i].waypoints_m.push_back(sample.position_m);
+    }
     GradeExcess excess{static_cast<int>(i), 1.0, {}};
     for (const LimitViolation& violation : r.violations) {
       double ratio = 1.0;
@@ -416,8 +433,26 @@ std::vector<GradeExcess> unflyable_grades(const TrajectoryProblem& problem,
                                           violation.description, violation.t_begin_s);
       }
     }
-    if (excess.ratio > 1.0) out.push_back(std::move(excess));
+    if (excess.ratio > 1.0) out.steep.push_back(std::move(excess));
   }
+  try {
+    out.validation = validate_plan(*problem.terrain, flown, problem.limits, validation);
+  } catch (const InputError&) {
+    return out;  // samples not strictly increasing in time: stage 4 and 5 judge the references
+  }
+  // The references' samples are 0.02 s apart: many violations fall on one grid step, and
+  // refine_where_broken doubles a step's samples per violation. One per kind, UAV(s) and step,
+  // the worst.
+  std::map<std::tuple<int, int, int, int>, PlanViolation> worst;
+  for (PlanViolation& v : out.validation.violations) {
+    const int k = static_cast<int>(std::floor(v.time_s / team.dt));
+    v.segment = std::clamp(k, 0, team.uavs[v.uav].segments() - 1);
+    auto [it, inserted] =
+        worst.try_emplace({static_cast<int>(v.kind), v.uav, v.other_uav, v.segment}, v);
+    if (!inserted && v.amount_m > it->second.amount_m) it->second = v;
+  }
+  out.validation.violations.clear();
+  for (auto& [key, v] : worst) out.validation.violations.push_back(std::move(v));
   return out;
 }
 
@@ -490,6 +525,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     result.status = status;
     result.message = std::move(message);
     result.paths.clear();
+    result.timing.clear();
     result.costs.clear();
     result.total_time_s = seconds_since(t_start);
     return result;
@@ -533,7 +569,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   // Solve, check densely, refine where the check failed, solve again from the last solution.
   std::vector<std::vector<Vec3>> previous;
   std::map<TrajectoryNlp::RowKey, double> previous_lambda;  // by row, from the last solve
-  std::string last_steep;  // the last solution's first unflyable grade, or empty
+  std::string last_flown;  // what the last solution's flown references broke
   Multipliers previous_bounds;                              // variables do not change
   for (int round = 0; round <= options.max_refinements; ++round) {
     setup.candidates.clear();
@@ -590,11 +626,13 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
                               result.solves, where.empty() ? "no violated row" : where));
     }
 
-    const std::vector<GradeExcess> steep = unflyable_grades(problem, paths, options.timing);
-    if (result.validation.passed() && steep.empty()) {
+    FlownCheck flown = check_flown(problem, paths, options, team, validation);
+    const std::vector<GradeExcess>& steep = flown.steep;
+    if (result.validation.passed() && flown.validation.passed() && steep.empty()) {
       result.status =
           round == 0 ? TrajectoryStatus::kSolved : TrajectoryStatus::kSolvedAfterRefinement;
       result.paths = std::move(paths);
+      result.timing = std::move(flown.timing);
       result.costs = nlp.costs(x.data(), &result.collision_cost);
       result.objective = nlp.objective(x.data());
       result.message.clear();
@@ -603,8 +641,10 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     }
 
     refine_where_broken(result.validation, team, options, setup, candidates);
+    refine_where_broken(flown.validation, team, options, setup, candidates);
     bound_grades(steep, setup);
-    last_steep = steep.empty() ? std::string() : "grade: " + steep.front().description;
+    last_flown = !steep.empty() ? "grade: " + steep.front().description
+                                : "flown references: " + flown.validation.summary(3);
     add_candidates_the_solve_brought_near(result.validation, waypoints, team, limits.separation_m,
                                           options, candidates);
     previous = waypoints;
@@ -616,7 +656,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   std::string message =
       fmt::format("every one of {} solve(s) broke a hard constraint in the dense check; last: {}",
                   result.solves,
-                  result.validation.passed() ? last_steep : result.validation.summary(3));
+                  result.validation.passed() ? last_flown : result.validation.summary(3));
   return fail(TrajectoryStatus::kValidationFailed, message);
 }
 

@@ -100,7 +100,10 @@
 // every control period (piecewise-linear positions; finished UAVs hold); and each UAV's path is
 // timed as the planner will fly it (time_parametrize_timed with options.timing): a pitch or
 // climb-rate violation gives that UAV the grade rows on every segment, or, if it had them, shrinks
-// its G by the excess (its corners cut more than grade_fraction left). A violation refines the
+// its G by the excess (its corners cut more than grade_fraction left); and those timed references
+// get the same dense check as the waypoints (their rounded corners and timing errors move them
+// off the straight, linearly timed segments: a separation row at d_safe + 0.5 m flew at 9.98 m),
+// each violation refined on the grid step of its time. A violation refines the
 // transcription: the offending segment gets twice the interior terrain samples and its margin
 // grows by the violated amount; an offending pair/step becomes a candidate with twice the interior
 // separation samples and a larger margin; the neighbouring segments of a terrain violation get
@@ -275,6 +278,9 @@ struct TrajectoryResult {
   double initial_collision_cost = 0.0;
   double initial_objective = 0.0;
   PlanValidationReport validation;  ///< of the last solution that was validated
+  /// Per UAV, `paths` timed with options.timing (time_parametrize_timed), as checked: the
+  /// references the planner flies (filled on success).
+  std::vector<TimeParametrizationResult> timing;
   /// The separation-aware guess (deconflict_guesses): separations before and after, lifts.
   GuessDeconflictionSummary guess;
 

@@ -227,7 +227,8 @@ TEST(TimeParametrization, CornersOfAClimbAtThePitchLimitKeepItFlyable) {
   std::vector<Vec3> w = {{0, 0, 100}};
   for (int k = 0; k < 6; ++k) {
     const double heading = k * kPi / 3.0;  // 60° left at every waypoint
-    w.push_back(w.back() + Vec3(len_m * std::cos(heading), len_m * std::sin(heading), grade * len_m));
+    w.push_back(w.back() +
+                Vec3(len_m * std::cos(heading), len_m * std::sin(heading), grade * len_m));
   }
   const auto r = time_parametrize(w, vp);
   ASSERT_TRUE(r.reference.has_value()) << r.message;
@@ -242,8 +243,8 @@ TEST(TimeParametrization, CornersOfAClimbAtThePitchLimitKeepItFlyable) {
   // sample nearest that time is within half a period, 0.01 s, at |ż| ≤ w_max = 3 m/s: 0.03 m.
   ASSERT_EQ(r.waypoint_times_s.size(), w.size());
   for (std::size_t k = 0; k < w.size(); ++k) {
-    const auto nearest = std::min_element(
-        r.sample_times_s.begin(), r.sample_times_s.end(), [&](double a, double b) {
+    const auto nearest =
+        std::min_element(r.sample_times_s.begin(), r.sample_times_s.end(), [&](double a, double b) {
           return std::abs(a - r.waypoint_times_s[k]) < std::abs(b - r.waypoint_times_s[k]);
         });
     const std::size_t i = static_cast<std::size_t>(nearest - r.sample_times_s.begin());
