@@ -145,12 +145,93 @@ def pick_points(local, area, n_uavs, n_targets):
     return starts, targets
 
 
+def dem_label(dem_file, origin):
+    if origin:
+        return 'SRTM3, EPSG:4326'
+    with open(dem_file.replace('.tif', '.asc')) as f:  # the header's cell size only
+        header = dict(line.split()[:2] for line, _ in zip(f, range(6)))
+    cell = int(float(header.get('cellsize', header.get('dx'))))
+    return f'SRTM3 to UTM 12N, {cell} m' if dem_file.endswith('.tif') else f'ridged fractal, {cell} m'
+
+
+def utm_corner(res):
+    """West and south edges of utm{res}.tif, and its east and north edges."""
+    info = json.loads(sh('gdalinfo', '-json', f'utm{res}.tif').stdout)
+    gt = info['geoTransform']
+    cols, rows = info['size']
+    return gt[0], gt[3] + rows * gt[5], gt[0] + cols * gt[1], gt[3]
+
+
+def fixed_cases(dem):
+    """The ten cases of the README table: (name, dem file, origin or None, area, uavs, targets)."""
+    ridged_fractal('ridged10.asc', 400, 10.0, 5)
+    ridged_fractal('ridged30.asc', 200, 30.0, 8)
+    cases = [
+        ('srtm-deg-a', dem, (37.30, -113.00), (-2200, 2200, -2200, 2200), 3, 4),
+        ('srtm-deg-b', dem, (37.22, -113.10), (-2500, 2500, -2000, 2000), 4, 4),
+        ('srtm-deg-c', dem, (37.40, -112.95), (-2000, 2000, -2000, 2000), 5, 5),
+        ('srtm-deg-d', dem, (37.25, -112.93), (-2500, 2500, -2500, 2500), 8, 6),
+    ]
+    for res in (30, 90):
+        w, s, _, _ = utm_corner(res)
+        # Windows around two UTM points, in the raster's corner frame (no origin).
+        for tag, (e, nn) in (('a', (321000, 4131000)), ('b', (330000, 4121000))):
+            cx, cy = e - w, nn - s
+            cases.append((f'srtm-utm{res}-{tag}', os.path.abspath(f'utm{res}.tif'), None,
+                          (cx - 2000, cx + 2000, cy - 2000, cy + 2000), 4 if tag == 'a' else 6, 4))
+    cases.append(('ridged-10m', os.path.abspath('ridged10.asc'), None, (200, 3800, 200, 3800), 4, 4))
+    cases.append(('ridged-30m', os.path.abspath('ridged30.asc'), None, (300, 5700, 300, 5700), 6, 5))
+    return cases
+
+
+def drawn_cases(dem, seed):
+    """Ten cases drawn from `seed`, the mix of fixed_cases: four SRTM windows in degrees, two
+    UTM 30 m and two UTM 90 m windows, two ridged fractal terrains (10 m and 30 m cells); areas
+    of 3.6-5 km, 3-8 UAVs, 3-6 targets."""
+    rnd = random.Random(seed)
+    info = json.loads(sh('gdalinfo', '-json', dem).stdout)
+    lon0, lat1 = info['geoTransform'][0], info['geoTransform'][3]
+    lon1 = lon0 + info['size'][0] * info['geoTransform'][1]
+    lat0 = lat1 + info['size'][1] * info['geoTransform'][5]
+    cases = []
+    for k in range(4):
+        half_x, half_y = rnd.uniform(1800, 2500), rnd.uniform(1800, 2500)
+        margin_lat, margin_lon = 0.03, 0.035  # > 2.5 km + the DEM cut's 500 m
+        origin = (round(rnd.uniform(lat0 + margin_lat, lat1 - margin_lat), 4),
+                  round(rnd.uniform(lon0 + margin_lon, lon1 - margin_lon), 4))
+        cases.append((f's{seed}-deg-{k}', dem, origin, (-half_x, half_x, -half_y, half_y),
+                      rnd.randint(3, 8), rnd.randint(3, 6)))
+    for res in (30, 90):
+        w, s, e, n = utm_corner(res)
+        for k in range(2):
+            half = rnd.uniform(1800, 2500)
+            cx = rnd.uniform(half + 2000, e - w - half - 2000)  # off the warp's void wedges
+            cy = rnd.uniform(half + 2000, n - s - half - 2000)
+            cases.append((f's{seed}-utm{res}-{k}', os.path.abspath(f'utm{res}.tif'), None,
+                          (cx - half, cx + half, cy - half, cy + half),
+                          rnd.randint(3, 8), rnd.randint(3, 6)))
+    for cell, size in ((10.0, 400), (30.0, 200)):
+        name = f'ridged{seed}-{int(cell)}.asc'
+        ridged_fractal(name, size, cell, 1000 + seed * 7 + int(cell))
+        edge = 0.05 * cell * size
+        cases.append((f's{seed}-ridged-{int(cell)}m', os.path.abspath(name), None,
+                      (edge, cell * size - edge, edge, cell * size - edge),
+                      rnd.randint(3, 8), rnd.randint(3, 6)))
+    return cases
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument('--ridgeline', default='build/ridgeline')
     ap.add_argument('--dem', default=os.path.join(os.path.dirname(__file__),
                                                   '../../shared/dem/zion_srtm3.tif'))
     ap.add_argument('--out', default='out/corpus')
+    ap.add_argument('--seed', type=int, default=None,
+                    help='instead of the ten fixed cases, ten cases drawn from this seed: other '
+                         'windows, UTM points, fractal terrains, team sizes and target counts')
+    ap.add_argument('--plan-only', action='store_true',
+                    help='plan each case (`ridgeline plan`) without flying it: no clearance '
+                         're-check')
     a = ap.parse_args()
     rl = os.path.abspath(a.ridgeline)
     dem = os.path.abspath(a.dem)
@@ -175,29 +256,7 @@ def main():
         sh('gdalwarp', '-q', '-overwrite', '-t_srs', 'EPSG:32612', '-tr', str(res), str(res),
            '-r', 'bilinear', dem, f'utm{res}.tif')
         sh('gdal_translate', '-q', '-of', 'AAIGrid', f'utm{res}.tif', f'utm{res}.asc')
-    ridged_fractal('ridged10.asc', 400, 10.0, 5)
-    ridged_fractal('ridged30.asc', 200, 30.0, 8)
-
-    # (name, dem file, origin or None, area, uavs, targets)
-    cases = [
-        ('srtm-deg-a', dem, (37.30, -113.00), (-2200, 2200, -2200, 2200), 3, 4),
-        ('srtm-deg-b', dem, (37.22, -113.10), (-2500, 2500, -2000, 2000), 4, 4),
-        ('srtm-deg-c', dem, (37.40, -112.95), (-2000, 2000, -2000, 2000), 5, 5),
-        ('srtm-deg-d', dem, (37.25, -112.93), (-2500, 2500, -2500, 2500), 8, 6),
-    ]
-    for res in (30, 90):
-        info = json.loads(sh('gdalinfo', '-json', f'utm{res}.tif').stdout)
-        gt = info['geoTransform']
-        w, n = gt[0], gt[3]
-        rows = info['size'][1]
-        s = n + rows * gt[5]
-        # Windows around two UTM points, in the raster's corner frame (no origin).
-        for tag, (e, nn) in (('a', (321000, 4131000)), ('b', (330000, 4121000))):
-            cx, cy = e - w, nn - s
-            cases.append((f'srtm-utm{res}-{tag}', os.path.abspath(f'utm{res}.tif'), None,
-                          (cx - 2000, cx + 2000, cy - 2000, cy + 2000), 4 if tag == 'a' else 6, 4))
-    cases.append(('ridged-10m', os.path.abspath('ridged10.asc'), None, (200, 3800, 200, 3800), 4, 4))
-    cases.append(('ridged-30m', os.path.abspath('ridged30.asc'), None, (300, 5700, 300, 5700), 6, 5))
+    cases = fixed_cases(dem) if a.seed is None else drawn_cases(dem, a.seed)
 
     print('| case | DEM | UAVs x targets | path source | Ipopt iterations | plan time s '
           '| objective / initial | min clearance reported / source re-check m |')
@@ -216,13 +275,28 @@ def main():
         starts, targets = pick_points(local, area, nu, nt)
         with open(f'{name}.yaml', 'w') as f:
             f.write(scenario_text(name, area, dem_file, origin, starts, targets))
-        r = subprocess.run([rl, 'run', '--quiet', '--scenario', f'{name}.yaml', '--out', name],
+        command = 'plan' if a.plan_only else 'run'
+        r = subprocess.run([rl, command] + ([] if a.plan_only else ['--quiet']) +
+                           ['--scenario', f'{name}.yaml', '--out', name],
                            capture_output=True, text=True)
         if r.returncode not in (0, 4):
-            print(f'| {name} | run failed (exit {r.returncode}): '
+            print(f'| {name} | {command} failed (exit {r.returncode}): '
                   f'{r.stderr.strip().splitlines()[-1] if r.stderr.strip() else ""} |||||||')
             continue
         plan = json.load(open(f'{name}/plan.json'))
+        ok = plan['path_source'] == 'optimized'
+        optimized += ok
+        opt = plan.get('optimizer', {})
+        cost = plan.get('cost', {})
+        ratio = (f"{cost['objective'] / cost['initial_objective']:.3f}"
+                 if cost.get('objective') and cost.get('initial_objective') else '-')
+        source = (plan['path_source'] if ok else
+                  f"{plan['path_source']}: {plan.get('optimizer_message', '')[:100]}")
+        if a.plan_only:
+            print(f"| {name} | {dem_label(dem_file, origin)} | {nu} x {nt} | {source} "
+                  f"| {opt.get('iterations', '-')} | {plan['solve_time_s']:.2f} | {ratio} | - |")
+            sys.stdout.flush()
+            continue
         metrics = json.load(open(f'{name}/metrics.json'))
         rows = []
         with open(f'{name}/trajectories.csv') as f:
@@ -236,26 +310,16 @@ def main():
             res = sh('gdaltransform', '-s_srs', tm, '-t_srs', 'EPSG:4326', '-output_xy',
                      input=''.join(f'{x} {y}\n' for x, y, _ in rows)).stdout.split('\n')
             src, pts = src_deg, [tuple(map(float, o.split()[:2])) for o in res[:len(rows)]]
-            label = 'SRTM3, EPSG:4326'
         elif dem_file.endswith('.tif'):
             src = Grid(dem_file.replace('.tif', '.asc'))
             w, s = src.x0 - src.cx / 2, src.y0 - src.cy / 2
             pts = [(x + w, y + s) for x, y, _ in rows]
-            label = f'SRTM3 to UTM 12N, {int(src.cx)} m'
         else:
             src = Grid(dem_file)
             pts = [(x, y) for x, y, _ in rows]
-            label = f'ridged fractal, {int(src.cx)} m'
         recheck = min(z - src.height(px, py) for (_, _, z), (px, py) in zip(rows, pts))
         reported = min(u['min_terrain_clearance_m'] for u in metrics['uavs'])
-        opt = plan.get('optimizer', {})
-        cost = plan.get('cost', {})
-        ok = plan['path_source'] == 'optimized'
-        optimized += ok
-        ratio = (f"{cost['objective'] / cost['initial_objective']:.3f}"
-                 if cost.get('objective') and cost.get('initial_objective') else '-')
-        source = plan['path_source'] if ok else f"{plan['path_source']}: {opt.get('message', '')[:80]}"
-        print(f"| {name} | {label} | {nu} x {nt} | {source} | {opt.get('iterations', '-')} "
+        print(f"| {name} | {dem_label(dem_file, origin)} | {nu} x {nt} | {source} | {opt.get('iterations', '-')} "
               f"| {plan['solve_time_s']:.2f} | {ratio} | {reported:.2f} / {recheck:.2f} |")
         sys.stdout.flush()
     print(f'\n{optimized} of {len(cases)} cases optimized; h_safe {H_SAFE} m')

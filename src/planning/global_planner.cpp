@@ -148,18 +148,18 @@ struct StageFailure {
   std::string message;
 };
 
-// Stage 4: each UAV's waypoints into its reference, at cruise (times == nullptr) or passing
-// waypoint k at times[i][k] (timed mode). A limit the reference would break is a failure.
+// Stage 4: each UAV's waypoints into its reference, at cruise (timed == nullptr), or the
+// optimizer's timed references (time_parametrize_timed with the same options, passing waypoint k
+// at its grid time). A limit the reference would break is a failure.
 StageFailure time_references(const std::vector<const PlannerUav*>& vehicles,
-                             const std::vector<std::vector<double>>* times,
+                             const std::vector<TimeParametrizationResult>* timed,
                              const GlobalPlannerOptions& options, std::vector<UavPlan>& uavs) {
   for (std::size_t i = 0; i < uavs.size(); ++i) {
     UavPlan& uav_plan = uavs[i];
     const vehicle::VehicleParams& vehicle = vehicles[i]->vehicle;
-    uav_plan.timing = times == nullptr
+    uav_plan.timing = timed == nullptr
                           ? time_parametrize(uav_plan.waypoints_m, vehicle, options.timing)
-                          : time_parametrize_timed(uav_plan.waypoints_m, (*times)[i], vehicle,
-                                                   options.timing);
+                          : (*timed)[i];
     if (uav_plan.timing.status == TimeParametrizationStatus::kInvalidInput ||
         !uav_plan.timing.reference)
       return {GlobalPlanStatus::kInvalidInput, uav_plan.name + ": " + uav_plan.timing.message};
@@ -236,13 +236,17 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
   // 2. Initial paths through each UAV's targets.
   stage = Clock::now();
   PathSearchOptions search = options.search;
-  double max_pitch_rad = kPi / 2;
+  // The profile's grade: the team's flyable grade (pitch, and climb at v0 − Δv, eq. 2) times
+  // the optimizer's grade_fraction, the room the time parametrization's corner arcs need (each
+  // steepens its stretch by the length it cuts), so the initial paths are flyable as a fallback.
+  double max_grade = std::numeric_limits<double>::infinity();
   double min_turn_radius_m = 0.0;
   for (const PlannerUav& u : problem.uavs) {
-    max_pitch_rad = std::min(max_pitch_rad, u.vehicle.max_pitch_rad);
+    max_grade = std::min({max_grade, std::tan(u.vehicle.max_pitch_rad),
+                          u.vehicle.max_climb_rate_m_s / u.vehicle.min_speed_m_s()});
     min_turn_radius_m = std::max(min_turn_radius_m, u.vehicle.min_turn_radius_m);
   }
-  search.max_pitch_rad = max_pitch_rad;
+  search.max_pitch_rad = std::atan(options.optimizer.grade_fraction * max_grade);
   search.turn_margin_m = std::max(search.turn_margin_m, min_turn_radius_m);
   std::vector<const PlannerUav*> flying;          // per plan.uavs entry
   std::vector<std::vector<int>> target_indices;  // per plan.uavs entry: targets on its path
@@ -300,19 +304,17 @@ GlobalPlan plan_mission(const GlobalPlanningProblem& problem, const GlobalPlanne
     TrajectoryOptimizerOptions optimizer = options.optimizer;
     optimizer.validation_terrain_step_m = options.validation_step_m;
     optimizer.validation_separation_period_s = options.timing.control_period_s;
+    optimizer.timing = options.timing;
     plan.optimization = optimize_trajectories(trajectory_problem, optimizer);
     plan.optimization_time_s = seconds_since(stage);
 
     std::string reason;
     if (plan.optimization->ok()) {
       std::vector<UavPlan> optimized = plan.uavs;
-      std::vector<std::vector<double>> times;
-      for (std::size_t i = 0; i < optimized.size(); ++i) {
+      for (std::size_t i = 0; i < optimized.size(); ++i)
         optimized[i].waypoints_m = plan.optimization->paths[i].waypoints_m;
-        times.push_back(plan.optimization->paths[i].times_s);
-      }
       stage = Clock::now();
-      StageFailure failure = time_references(flying, &times, options, optimized);
+      StageFailure failure = time_references(flying, &plan.optimization->timing, options, optimized);
       plan.timing_time_s = seconds_since(stage);
       if (failure.status == GlobalPlanStatus::kPlanned) {
         stage = Clock::now();

@@ -68,12 +68,14 @@ enum class OptimizerFallback {
 };
 
 struct GlobalPlannerOptions {
-  PathSearchOptions search;  ///< θ_max and the turn margin are taken from the team's vehicles
+  /// θ_max (atan of optimizer.grade_fraction × the team's flyable grade, min(tan θ_max,
+  /// w_max/(v0 − Δv))) and the turn margin are taken from the team's vehicles.
+  PathSearchOptions search;
   AllocationOptions allocation;
   CostEstimateOptions cost_estimate;
   bool optimize = true;  ///< stage 3 (joint optimization, eq. 14–24) on or off
   /// Stage 3. The validation steps are taken from validation_step_m and
-  /// timing.control_period_s; the rest (grid, weights w1..w4, λ1, λ2, penalties, solver limits)
+  /// timing.control_period_s, its timing check from timing; the rest (grid, weights w1..w4, λ1, λ2, penalties, solver limits)
   /// as given. The limits are the problem's.
   TrajectoryOptimizerOptions optimizer;
   OptimizerFallback on_optimizer_failure = OptimizerFallback::kInitialPaths;

@@ -59,6 +59,7 @@ struct Piece {
   double length_m = 0.0;           // horizontal arc length
   double z0_m = 0.0;
   double grade = 0.0;         // dz/ds
+  bool level = false;         // part of a reversal loop: flown at its vertex's height
   double heading0_rad = 0.0;  // unwrapped tangent heading at the start
   int waypoint = 0;           // input index (segment's first point or corner vertex)
   double cap_m_s = 0.0;       // speed cap v̄
@@ -103,7 +104,7 @@ struct Geometry {
 };
 
 void append_arc(std::vector<Piece>& pieces, const Vec2& centre, double radius, const Vec2& from,
-                double sigma, double sweep_rad, double z0, double grade, int waypoint) {
+                double sigma, double sweep_rad, int waypoint, bool level = false) {
   Piece p;
   p.is_arc = true;
   p.centre = centre;
@@ -112,8 +113,7 @@ void append_arc(std::vector<Piece>& pieces, const Vec2& centre, double radius, c
   p.start = from;
   p.sigma = sigma;
   p.length_m = radius * sweep_rad;
-  p.z0_m = z0;
-  p.grade = grade;
+  p.level = level;
   p.heading0_rad = p.phase0_rad + sigma * 0.5 * kPi;
   p.waypoint = waypoint;
   pieces.push_back(p);
@@ -168,12 +168,11 @@ Geometry build_geometry(const std::vector<Vec3>& w, const vehicle::VehicleParams
 
   // Segments (kept indices j → j+1).
   std::vector<Vec2> dir(m - 1);
-  std::vector<double> len(m - 1), grade(m - 1);
+  std::vector<double> len(m - 1);
   for (int j = 0; j + 1 < m; ++j) {
     const Vec2 d = (P[j + 1] - P[j]).head<2>();
     len[j] = d.norm();
     dir[j] = d / len[j];
-    grade[j] = (P[j + 1].z() - P[j].z()) / len[j];
   }
 
   // Corner plans at interior vertices.
@@ -222,8 +221,6 @@ Geometry build_geometry(const std::vector<Vec3>& w, const vehicle::VehicleParams
       p.start = P[j].head<2>() + trim0 * dir[j];
       p.direction = dir[j];
       p.length_m = line_len;
-      p.z0_m = P[j].z() + grade[j] * trim0;
-      p.grade = grade[j];
       p.heading0_rad = angle_of(dir[j]);
       p.waypoint = g.input_of_kept[j];
       pieces.push_back(p);
@@ -239,18 +236,14 @@ Geometry build_geometry(const std::vector<Vec3>& w, const vehicle::VehicleParams
     } else if (c.type == CornerType::kArc) {
       ++g.corners_rounded;
       const Vec2 t1 = V - c.tangent * dir[v - 1];
-      const double z1 = P[v].z() - grade[v - 1] * c.tangent;
-      const double z2 = P[v].z() + grade[v] * c.tangent;
       const Vec2 centre = t1 + sigma * c.radius * left_normal(dir[v - 1]);
       const double half = 0.5 * std::abs(c.turn);
-      const double arc_grade = (z2 - z1) / (c.radius * 2.0 * half);
       const int first = static_cast<int>(pieces.size());
-      append_arc(pieces, centre, c.radius, t1, sigma, half, z1, arc_grade, wp);
+      append_arc(pieces, centre, c.radius, t1, sigma, half, wp);
       g.boundary_of_kept[v] = static_cast<int>(pieces.size());
       const double phase_mid = angle_of(t1 - centre) + sigma * half;
       const Vec2 mid = centre + c.radius * Vec2(std::cos(phase_mid), std::sin(phase_mid));
-      append_arc(pieces, centre, c.radius, mid, sigma, half, z1 + arc_grade * c.radius * half,
-                 arc_grade, wp);
+      append_arc(pieces, centre, c.radius, mid, sigma, half, wp);
       if (c.radius < vp.min_turn_radius_m) {
         g.violations.push_back(
             {LimitKind::kTurnRadius, wp, c.radius, vp.min_turn_radius_m, first, first + 2,
@@ -274,19 +267,41 @@ Geometry build_geometry(const std::vector<Vec3>& w, const vehicle::VehicleParams
       const Vec2 c2 = mid + std::sqrt(std::max(0.0, 4.0 * R * R - h * h)) * perp;
       const Vec2 t1 = 0.5 * (c1 + c2);
       const Vec2 t2 = 0.5 * (c2 + c3);
-      const double z = P[v].z();
-      append_arc(pieces, c1, R, V, -sigma, sweep_between(V - c1, t1 - c1, -sigma), z, 0.0, wp);
+      append_arc(pieces, c1, R, V, -sigma, sweep_between(V - c1, t1 - c1, -sigma), wp, true);
       const double sweep2 = sweep_between(t1 - c2, t2 - c2, sigma);
-      append_arc(pieces, c2, R, t1, sigma, 0.5 * sweep2, z, 0.0, wp);
+      append_arc(pieces, c2, R, t1, sigma, 0.5 * sweep2, wp, true);
       g.boundary_of_kept[v] = static_cast<int>(pieces.size());
       const double phase_mid = angle_of(t1 - c2) + sigma * 0.5 * sweep2;
       append_arc(pieces, c2, R, c2 + R * Vec2(std::cos(phase_mid), std::sin(phase_mid)), sigma,
-                 0.5 * sweep2, z, 0.0, wp);
-      append_arc(pieces, c3, R, t2, -sigma, sweep_between(t2 - c3, V - c3, -sigma), z, 0.0, wp);
+                 0.5 * sweep2, wp, true);
+      append_arc(pieces, c3, R, t2, -sigma, sweep_between(t2 - c3, V - c3, -sigma), wp, true);
     }
   }
   g.boundary_of_kept[0] = 0;
   g.boundary_of_kept[m - 1] = static_cast<int>(pieces.size());
+
+  // Heights: between the path points of two consecutive kept waypoints (boundary_of_kept: the
+  // vertex, its arc's midpoint or its loop's far point) z is linear in the flown horizontal arc
+  // length, loops level at their vertex. A corner arc is shorter than the two tangent lengths it
+  // replaces, by c = R·(tan(φ/2) − φ/2); spread over the whole stretch that steepens it by
+  // c/stretch (~1 % for R = 12 m, φ = 60°, 50 m segments), where a height linear on the arc
+  // alone between its tangent points steepened the arc by 2·tan(φ/2)/φ (10 % at 60°), so a climb
+  // at the segments' pitch or climb limit broke the limit on every corner it turned.
+  for (int j = 0; j + 1 < m; ++j) {
+    const int begin = g.boundary_of_kept[j];
+    const int end = g.boundary_of_kept[j + 1];
+    double sloped_m = 0.0;
+    for (int k = begin; k < end; ++k)
+      if (!pieces[k].level) sloped_m += pieces[k].length_m;
+    const double rise_m = P[j + 1].z() - P[j].z();
+    const double grade = sloped_m > kTinyLength_m ? rise_m / sloped_m : 0.0;
+    double z = P[j].z();
+    for (int k = begin; k < end; ++k) {
+      pieces[k].z0_m = z;
+      pieces[k].grade = pieces[k].level ? 0.0 : grade;
+      z += pieces[k].grade * pieces[k].length_m;
+    }
+  }
 
   // Unwrap the headings along the path so ψ is continuous.
   for (std::size_t k = 1; k < pieces.size(); ++k) {

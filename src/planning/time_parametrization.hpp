@@ -20,8 +20,11 @@
 //    φ ≥ loop_turn_angle_rad (a reversal) whose arc does not fit is instead flown as a loop
 //    that leaves and re-enters the vertex ("light-bulb" turn: arcs of radius R* turning −α,
 //    +(φ+2α), −α, α = 60° for a full reversal); it needs no segment length but leaves the
-//    polyline by up to ≈ 2.7·R* beyond the vertex. On an arc the height is linear between the
-//    tangent points, so the arc's grade can exceed the segments' grades (by ≤ 2 tan(φ/2)/φ).
+//    polyline by up to ≈ 2.7·R* beyond the vertex. Heights: between the path points of two
+//    consecutive waypoints (a vertex, its arc's midpoint, its loop's far point) z is linear in
+//    the flown horizontal arc length (loops are flown level), so each waypoint's height is met
+//    at its path point, and a corner steepens the two stretches beside it only by the length
+//    its arc cuts, R·(tan(φ/2) − φ/2), shared over each whole stretch.
 //    Vertical corners are not blended: where the grade changes, the climb rate ż steps (the
 //    tracker's climb lag τ_w absorbs the step; horizontal velocity is continuous everywhere).
 //

@@ -212,7 +212,16 @@ TrajectoryNlp::TrajectoryNlp(NlpSetup setup) : setup_(std::move(setup)) {
         climb.upper = u.max_climb_m;
         add_row(climb, {3 * p0 + 2, 3 * p1 + 2});
       }
-      segment_rows_[i][k][1] = segment_rows_[i][k][2] = -1;
+      segment_rows_[i][k][1] = segment_rows_[i][k][2] = segment_rows_[i][k][3] = -1;
+      if (!both_fixed && !setup_.grade_rows.empty() && setup_.grade_rows[i][k]) {
+        // |d_z| ≤ G·|d_xy| on the segment's actual horizontal length (the speed band keeps
+        // |d_xy| > 0), squared so that the row is smooth: G²·|d_xy|² − d_z² ≥ 0.
+        segment_rows_[i][k][3] = static_cast<int>(rows_.size());
+        Row grade(RowKind::kGrade, i, -1, k);
+        grade.lower = 0.0;
+        grade.upper = kInf;
+        add_row(grade, {3 * p0, 3 * p0 + 1, 3 * p0 + 2, 3 * p1, 3 * p1 + 1, 3 * p1 + 2});
+      }
       if (u.pitch_rows)
         for (RowKind kind : {RowKind::kPitchUp, RowKind::kPitchDown}) {
           segment_rows_[i][k][kind == RowKind::kPitchUp ? 1 : 2] = static_cast<int>(rows_.size());
@@ -395,7 +404,7 @@ void TrajectoryNlp::bounds(double* x_l, double* x_u, double* g_l, double* g_u) c
 void TrajectoryNlp::row_scaling(double* scale) const {
   for (std::size_t r = 0; r < rows_.size(); ++r) {
     const Row& row = rows_[r];
-    if (row.kind == RowKind::kSpeed) {
+    if (row.kind == RowKind::kSpeed || row.kind == RowKind::kGrade) {
       scale[r] = 1.0 / (2.0 * setup_.uavs[row.uav].nominal_length_m);
     } else if (row.kind == RowKind::kSeparation || row.kind == RowKind::kObstacle) {
       scale[r] = 1.0 / (2.0 * std::sqrt(std::max(row.lower, 1.0)));
@@ -594,6 +603,13 @@ double TrajectoryNlp::row_value(const Row& row, const double* x) const {
       const int* c = &cols_[row.col_begin];
       return x[c[1]] - x[c[0]];
     }
+    case RowKind::kGrade: {
+      const int* c = &cols_[row.col_begin];
+      const double dx = x[c[3]] - x[c[0]];
+      const double dy = x[c[4]] - x[c[1]];
+      const double dz = x[c[5]] - x[c[2]];
+      return u.max_grade * u.max_grade * (dx * dx + dy * dy) - dz * dz;
+    }
     case RowKind::kPitchUp:
     case RowKind::kPitchDown: {
       const int* c = &cols_[row.col_begin];
@@ -667,6 +683,16 @@ void TrajectoryNlp::jacobian_values(const double* x, double* values) const {
         v[0] = -1.0;
         v[1] = 1.0;
         break;
+      case RowKind::kGrade: {
+        const double g2 = u.max_grade * u.max_grade;
+        const double d[3] = {2.0 * g2 * (x[c[3]] - x[c[0]]), 2.0 * g2 * (x[c[4]] - x[c[1]]),
+                             -2.0 * (x[c[5]] - x[c[2]])};
+        for (int e = 0; e < 3; ++e) {
+          v[e] = -d[e];
+          v[3 + e] = d[e];
+        }
+        break;
+      }
       case RowKind::kPitchUp:
       case RowKind::kPitchDown: {
         const double sign = row.kind == RowKind::kPitchUp ? -1.0 : 1.0;
@@ -755,9 +781,12 @@ void TrajectoryNlp::hessian_loop(const double* x, double sigma, const double* la
       D parts[2];
       segment_parts(origin, step, q, parts);
       D f = l1 * (o.weight_range * parts[0] + o.weight_pitch * parts[1]);
-      const std::array<int, 3>& r = segment_rows_[i][k];
-      // The speed row |d_xy|² (the pitch rows are linear).
+      const std::array<int, 4>& r = segment_rows_[i][k];
+      // The speed row |d_xy|² and the grade row G²·|d_xy|² − d_z² (the pitch rows are linear).
       if (r[0] >= 0) f += lambda[r[0]] * (step[0] * step[0] + step[1] * step[1]);
+      if (r[3] >= 0)
+        f += lambda[r[3]] * (u.max_grade * u.max_grade * (step[0] * step[0] + step[1] * step[1]) -
+                             step[2] * step[2]);
       Eigen::Matrix3d G = f.H;
       if (convex) project_to_psd(G);
       for (int m = 0; m < 3; ++m)
@@ -930,6 +959,11 @@ std::string TrajectoryNlp::describe(const Row& row) const {
     case RowKind::kClimb:
       return fmt::format("climb rate (eq. 2) of UAV {} on segment {} (t = {:.1f} s)", name, row.k,
                          row.k * dt);
+    case RowKind::kGrade:
+      return fmt::format(
+          "grade (pitch and climb limits, eq. 2) of UAV {} on segment {} (t = "
+          "{:.1f} s)",
+          name, row.k, row.k * dt);
     case RowKind::kPitchUp:
     case RowKind::kPitchDown:
       return fmt::format("pitch slack (eq. 16) of UAV {} on segment {}", name, row.k);

@@ -25,6 +25,10 @@ struct GridUav {
   double max_length_m = 0.0;         ///< (v0 + Δv)·Δt
   double max_climb_m = 0.0;          ///< w_max·Δt (used when options.enforce_climb_rate)
   double tan_max_pitch = 0.0;        ///< tan θ_max
+  /// G of the hard grade rows |d_z| ≤ G·|d_xy| (NlpSetup::grade_rows): a share of the flyable
+  /// grade min(tan θ_max, w_max/(v0 − Δv)), leaving room for the corners the time
+  /// parametrization rounds.
+  double max_grade = 0.0;
   /// False when the climb limit already implies the pitch limit at the nominal length
   /// (enforce_climb_rate and w_max·Δt ≤ tan θ_max·ℓ): the penalty is then identically zero and
   /// its slacks and rows are left out.
@@ -69,6 +73,9 @@ struct NlpSetup {
   TrajectoryOptimizerOptions options;
   std::vector<std::vector<int>> terrain_samples;       ///< per UAV, per segment (interior points)
   std::vector<std::vector<double>> clearance_extra_m;  ///< per UAV, per waypoint: extra margin
+  /// Per UAV, per segment: 1 where the grade is a hard row G²·|d_xy|² − d_z² ≥ 0 (G =
+  /// GridUav::max_grade); empty: no grade rows.
+  std::vector<std::vector<char>> grade_rows;
   std::vector<SeparationCandidate> candidates;
   std::vector<ObstacleRow> obstacles;
 };
@@ -134,6 +141,7 @@ class TrajectoryNlp {
   enum class RowKind {
     kSpeed,
     kClimb,
+    kGrade,
     kPitchUp,
     kPitchDown,
     kTurn,
@@ -181,9 +189,9 @@ class TrajectoryNlp {
   std::vector<Row> rows_;
   std::vector<int> cols_;
 
-  // Rows of each UAV's segments (speed, pitch up, pitch down) and vertices (turn), for the
-  // Hessian's element loops.
-  std::vector<std::vector<std::array<int, 3>>> segment_rows_;
+  // Rows of each UAV's segments (speed, pitch up, pitch down, grade; −1: none) and vertices
+  // (turn), for the Hessian's element loops.
+  std::vector<std::vector<std::array<int, 4>>> segment_rows_;
   std::vector<std::vector<int>> turn_rows_;
   // Hessian: the element loop (hessian_loop) visits entries in a fixed order; slot m of that
   // order accumulates into hess_slot_[m] of the lower-triangle structure (hess_rows_, hess_cols_).

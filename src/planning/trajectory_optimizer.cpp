@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "planning/guess_deconfliction.hpp"
+#include "planning/time_parametrization.hpp"
 #include "planning/trajectory_ipopt.hpp"
 #include "planning/trajectory_nlp.hpp"
 
@@ -33,6 +34,7 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   if (!std::isfinite(o.time_step_s)) return bad("time_step_s", "must be finite");
   if (!finite_nonneg(o.clearance_margin_m)) return bad("clearance_margin_m", "must be >= 0");
   if (!finite_nonneg(o.separation_margin_m)) return bad("separation_margin_m", "must be >= 0");
+  if (!(o.grade_fraction > 0.0 && o.grade_fraction <= 1.0)) return bad("grade_fraction", "must be in (0, 1]");
   if (o.terrain_samples_per_segment < 0) return bad("terrain_samples_per_segment", "must be >= 0");
   if (o.separation_samples_per_step < 0) return bad("separation_samples_per_step", "must be >= 0");
   if (!finite_nonneg(o.separation_prefilter_m)) return bad("separation_prefilter_m", "must be >= 0");
@@ -137,7 +139,8 @@ Legs legs_of(const TrajectoryUav& u, bool climb) {
 }
 
 // UAV u on the grid of step dt: each leg resampled at equal times (file comment of the header).
-GridUav make_grid(const TrajectoryUav& u, const Legs& legs, double dt, bool climb) {
+GridUav make_grid(const TrajectoryUav& u, const Legs& legs, double dt, bool climb,
+                  double grade_fraction) {
   GridUav g;
   g.name = u.name;
   const auto& v = u.vehicle;
@@ -145,6 +148,9 @@ GridUav make_grid(const TrajectoryUav& u, const Legs& legs, double dt, bool clim
   g.max_length_m = v.max_speed_m_s() * dt;
   g.max_climb_m = v.max_climb_rate_m_s * dt;
   g.tan_max_pitch = std::tan(v.max_pitch_rad);
+  // Flown at pitch atan(grade) ≤ θ_max, and at v0 − Δv or faster climbing ≤ w_max (eq. 2).
+  g.max_grade = grade_fraction *
+                std::min(g.tan_max_pitch, v.max_climb_rate_m_s / v.min_speed_m_s());
   g.pitch_rows = !(climb && g.max_climb_m <= g.tan_max_pitch * g.nominal_length_m);
   g.guess_m.push_back(u.initial_path_m.front());
   g.fixed.push_back(1);
@@ -248,7 +254,8 @@ TeamGrid make_team_grid(const TrajectoryProblem& problem,
   }
   team.dt = options.time_step_s > 0.0 ? options.time_step_s : t_max / options.waypoints_per_uav;
   for (int i = 0; i < n_uav; ++i) {
-    team.uavs.push_back(make_grid(problem.uavs[i], legs[i], team.dt, climb));
+    team.uavs.push_back(
+        make_grid(problem.uavs[i], legs[i], team.dt, climb, options.grade_fraction));
     team.max_index = std::max(team.max_index, team.uavs[i].segments());
   }
   return team;
@@ -378,6 +385,92 @@ void refine_where_broken(const PlanValidationReport& validation, const TeamGrid&
   }
 }
 
+// A UAV whose solution the time parametrization cannot fly within its pitch or climb limit
+// (eq. 2), and by how much: the flown grade over the flyable one (> 1).
+struct GradeExcess {
+  int uav = 0;
+  double ratio = 1.0;
+  std::string description;
+};
+
+// The solution as stage 4 of the global planner will fly it (time_parametrize_timed): the UAVs
+// with a pitch or climb-rate violation, each with its largest excess, and the dense check of the
+// flown references themselves (their rounded corners and timing errors move them off the
+// waypoints' straight, linearly timed segments), each violation placed on the grid step of its
+// time, where refine_where_broken adds rows.
+struct FlownCheck {
+  std::vector<TimeParametrizationResult> timing;  // per UAV
+  std::vector<GradeExcess> steep;
+  PlanValidationReport validation;
+};
+
+FlownCheck check_flown(const TrajectoryProblem& problem, const std::vector<TimedPath>& paths,
+                       const TrajectoryOptimizerOptions& options, const TeamGrid& team,
+                       const PlanValidationOptions& validation) {
+  FlownCheck out;
+  std::vector<TimedPath> flown(paths.size());
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    const vehicle::VehicleParams& v = problem.uavs[i].vehicle;
+    const TimeParametrizationResult& r = out.timing.emplace_back(
+        time_parametrize_timed(paths[i].waypoints_m, paths[i].times_s, v, options.timing));
+    flown[i].name = paths[i].name;
+    if (r.samples.empty()) {
+      flown[i] = paths[i];  // no reference (invalid input): stage 4 reports it
+    } else {
+      flown[i].times_s = r.sample_times_s;
+      for (const auto& sample : r.samples) flown[i].waypoints_m.push_back(sample.position_m);
+    }
+    GradeExcess excess{static_cast<int>(i), 1.0, {}};
+    for (const LimitViolation& violation : r.violations) {
+      double ratio = 1.0;
+      if (violation.kind == LimitKind::kPitch)
+        ratio = std::tan(std::min(violation.value, 0.5 * kPi - 1e-6)) / std::tan(violation.limit);
+      else if (violation.kind == LimitKind::kClimbRate)
+        ratio = violation.value / violation.limit;
+      if (ratio > excess.ratio) {
+        excess.ratio = ratio;
+        excess.description = fmt::format("{}: {} (t = {:.1f} s)", paths[i].name,
+                                          violation.description, violation.t_begin_s);
+      }
+    }
+    if (excess.ratio > 1.0) out.steep.push_back(std::move(excess));
+  }
+  try {
+    out.validation = validate_plan(*problem.terrain, flown, problem.limits, validation);
+  } catch (const InputError&) {
+    return out;  // samples not strictly increasing in time: stage 4 and 5 judge the references
+  }
+  // The references' samples are 0.02 s apart: many violations fall on one grid step, and
+  // refine_where_broken doubles a step's samples per violation. One per kind, UAV(s) and step,
+  // the worst.
+  std::map<std::tuple<int, int, int, int>, PlanViolation> worst;
+  for (PlanViolation& v : out.validation.violations) {
+    const int k = static_cast<int>(std::floor(v.time_s / team.dt));
+    v.segment = std::clamp(k, 0, team.uavs[v.uav].segments() - 1);
+    auto [it, inserted] =
+        worst.try_emplace({static_cast<int>(v.kind), v.uav, v.other_uav, v.segment}, v);
+    if (!inserted && v.amount_m > it->second.amount_m) it->second = v;
+  }
+  out.validation.violations.clear();
+  for (auto& [key, v] : worst) out.validation.violations.push_back(std::move(v));
+  return out;
+}
+
+// A UAV whose grades cannot be flown gets the hard grade row on every segment (where one segment
+// is bounded, the solve would move the climb to its unbounded neighbours); if it had them, its G
+// shrinks by the excess, 1 % more: what its corners added (time_parametrization.hpp) was more
+// than grade_fraction left for them.
+void bound_grades(const std::vector<GradeExcess>& excesses, NlpSetup& setup) {
+  if (setup.grade_rows.empty())
+    for (const GridUav& g : setup.uavs) setup.grade_rows.emplace_back(g.segments(), 0);
+  for (const GradeExcess& e : excesses) {
+    std::vector<char>& rows = setup.grade_rows[e.uav];
+    if (std::find(rows.begin(), rows.end(), 1) != rows.end())
+      setup.uavs[e.uav].max_grade /= 1.01 * e.ratio;
+    std::fill(rows.begin(), rows.end(), 1);
+  }
+}
+
 // When the dense check found a separation violation, the pairs the solution brought within
 // the collision cost's reach D_c (or the prefilter distance, if smaller) that are not
 // candidates yet become candidates too: the solve moved them away from their guesses, and
@@ -432,6 +525,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     result.status = status;
     result.message = std::move(message);
     result.paths.clear();
+    result.timing.clear();
     result.costs.clear();
     result.total_time_s = seconds_since(t_start);
     return result;
@@ -475,6 +569,7 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   // Solve, check densely, refine where the check failed, solve again from the last solution.
   std::vector<std::vector<Vec3>> previous;
   std::map<TrajectoryNlp::RowKey, double> previous_lambda;  // by row, from the last solve
+  std::string last_flown;  // what the last solution's flown references broke
   Multipliers previous_bounds;                              // variables do not change
   for (int round = 0; round <= options.max_refinements; ++round) {
     setup.candidates.clear();
@@ -531,10 +626,13 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
                               result.solves, where.empty() ? "no violated row" : where));
     }
 
-    if (result.validation.passed()) {
+    FlownCheck flown = check_flown(problem, paths, options, team, validation);
+    const std::vector<GradeExcess>& steep = flown.steep;
+    if (result.validation.passed() && flown.validation.passed() && steep.empty()) {
       result.status =
           round == 0 ? TrajectoryStatus::kSolved : TrajectoryStatus::kSolvedAfterRefinement;
       result.paths = std::move(paths);
+      result.timing = std::move(flown.timing);
       result.costs = nlp.costs(x.data(), &result.collision_cost);
       result.objective = nlp.objective(x.data());
       result.message.clear();
@@ -543,6 +641,10 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
     }
 
     refine_where_broken(result.validation, team, options, setup, candidates);
+    refine_where_broken(flown.validation, team, options, setup, candidates);
+    bound_grades(steep, setup);
+    last_flown = !steep.empty() ? "grade: " + steep.front().description
+                                : "flown references: " + flown.validation.summary(3);
     add_candidates_the_solve_brought_near(result.validation, waypoints, team, limits.separation_m,
                                           options, candidates);
     previous = waypoints;
@@ -553,7 +655,8 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   }
   std::string message =
       fmt::format("every one of {} solve(s) broke a hard constraint in the dense check; last: {}",
-                  result.solves, result.validation.summary(3));
+                  result.solves,
+                  result.validation.passed() ? last_flown : result.validation.summary(3));
   return fail(TrajectoryStatus::kValidationFailed, message);
 }
 

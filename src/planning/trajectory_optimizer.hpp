@@ -33,6 +33,12 @@
 //          grid stays a valid timing; the lower bound is relaxed to half the guess's length where
 //          the guess itself is slower (very short legs).
 //  climb   |d_z| ≤ w_max·Δt (eq. 2), when enforce_climb_rate.
+//  grade   G²·(d_x² + d_y²) − d_z² ≥ 0, i.e. |d_z| ≤ G·|d_xy| on the segment's actual horizontal
+//          length, G = grade_fraction·min(tan θ_max, w_max/(v0 − Δv)): the pitch limit, and the
+//          climb limit at the slowest speed the band allows (the speed band and the climb row
+//          alone allow w_max/(v0 − Δv), above tan θ_max for the default vehicle, and the pitch
+//          penalty below is soft and measured over ℓ). Added where a solution breaks it (see
+//          "Validation and refinement"), so plans that never climb that steeply keep their NLP.
 // Penalty rows (exact penalties of the non-smooth max terms, linear in the slacks):
 //  (15–16) s^θ_k ≥ ±d_z/ℓ − tan θ_max, s^θ_k ≥ 0: s^θ is the grade in excess of tan θ_max, a
 //          smooth surrogate of max(0, |θ| − θ_max) (tan is increasing, so both vanish together).
@@ -91,7 +97,13 @@
 //
 // Validation and refinement. After every solve the waypoints with their times t_k are checked by
 // validate_plan (plan_validation.hpp): terrain every ≤ 5 m, the altitude band, and separation at
-// every control period (piecewise-linear positions; finished UAVs hold). A violation refines the
+// every control period (piecewise-linear positions; finished UAVs hold); and each UAV's path is
+// timed as the planner will fly it (time_parametrize_timed with options.timing): a pitch or
+// climb-rate violation gives that UAV the grade rows on every segment, or, if it had them, shrinks
+// its G by the excess (its corners cut more than grade_fraction left); and those timed references
+// get the same dense check as the waypoints (their rounded corners and timing errors move them
+// off the straight, linearly timed segments: a separation row at d_safe + 0.5 m flew at 9.98 m),
+// each violation refined on the grid step of its time. A violation refines the
 // transcription: the offending segment gets twice the interior terrain samples and its margin
 // grows by the violated amount; an offending pair/step becomes a candidate with twice the interior
 // separation samples and a larger margin; the neighbouring segments of a terrain violation get
@@ -112,6 +124,7 @@
 #include "core/types.hpp"
 #include "planning/guess_deconfliction.hpp"
 #include "planning/plan_validation.hpp"
+#include "planning/time_parametrization.hpp"
 #include "vehicle/vehicle_model.hpp"
 #include "world/safety_limits.hpp"
 #include "world/terrain.hpp"
@@ -154,6 +167,10 @@ struct TrajectoryOptimizerOptions {
   double separation_prefilter_m = 50.0;  ///< candidate pairs: guesses within this distance
                                          ///< (misses are caught by the dense check and added)
   bool enforce_climb_rate = true;        ///< |d_z| ≤ w_max·Δt
+  /// G = this × the flyable grade min(tan θ_max, w_max/(v0 − Δv)) bounds every segment's grade
+  /// |d_z|/|d_xy| (file comment, "grade"); in (0, 1]: the rest is room for the corners the time
+  /// parametrization rounds (each steepens its stretch by the length its arc cuts).
+  double grade_fraction = 0.95;
   /// Separation-aware initial guess (guess_deconfliction.hpp): before the first solve, UAVs
   /// whose resampled initial paths come closer than guess_separation_factor·d_safe at equal
   /// times are lifted into altitude layers (shortest routes first; only z is raised, within the
@@ -212,6 +229,9 @@ struct TrajectoryOptimizerOptions {
   /// restarting the barrier at its default 0.1.
   bool warm_start_refinements = true;
   double warm_start_mu = 1e-3;
+  /// The timing that will fly the waypoints (time_parametrization.hpp, timed mode): a solution
+  /// it cannot fly within a UAV's pitch or climb limit gets grade rows (file comment).
+  TimeParametrizationOptions timing;
   // Validation (plan_validation.hpp).
   double validation_terrain_step_m = 2.0;        ///< ≤ 5
   double validation_separation_period_s = 0.02;  ///< the control period
@@ -258,6 +278,9 @@ struct TrajectoryResult {
   double initial_collision_cost = 0.0;
   double initial_objective = 0.0;
   PlanValidationReport validation;  ///< of the last solution that was validated
+  /// Per UAV, `paths` timed with options.timing (time_parametrize_timed), as checked: the
+  /// references the planner flies (filled on success).
+  std::vector<TimeParametrizationResult> timing;
   /// The separation-aware guess (deconflict_guesses): separations before and after, lifts.
   GuessDeconflictionSummary guess;
 

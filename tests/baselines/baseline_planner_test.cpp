@@ -52,8 +52,9 @@ TEST(BaselinePlanner, BothMethodsReachTheirTargetsAboveTheTerrainWithinThePitchL
       EXPECT_GE(check.min_clearance_m, 20.0 - 1e-6) << to_string(method);
       EXPECT_GE(check.min_altitude_m, 40.0);
       EXPECT_LE(check.max_altitude_m, 500.0);
-      // The profile's grade is ≤ 0.8 tan 30°; corner arcs may add a little (time
-      // parametrization, ≤ 2 tan(φ/2)/φ), so allow the hard limit itself.
+      // The profile's grade is ≤ 0.8 tan 30°; corner arcs may add a little (the time
+      // parametrization spreads the length an arc cuts over its stretch), so allow the hard
+      // limit itself.
       EXPECT_LE(check.max_pitch_rad, deg_to_rad(30.0) + 1e-6);
       // Around the hill, not over it: nothing above the hill's flanks' altitude band.
       for (const Vec3& p : u.waypoints_m) EXPECT_GT((p.head<2>() - Vec2(480, 480)).norm(), 150.0);

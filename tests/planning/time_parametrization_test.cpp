@@ -215,6 +215,43 @@ TEST(TimeParametrization, SteepClimbIsSlowedToClimbLimit) {
   EXPECT_NEAR(r.waypoint_times_s[2] - r.waypoint_times_s[1], 100.0 / 6.0, 1e-9);
 }
 
+// A climb at 0.97 tan θ_max that turns 60° at every waypoint (segments 60 m, R = 12 m): the
+// heights are spread over each stretch between waypoints, so every corner adds only the length
+// its arc cuts, R·(tan 30° − π/6) = 0.64 m of 60 m, and the flown grade stays within the pitch
+// limit. Linear heights on the arcs alone (the former rule) steepened each arc by
+// 2·tan 30°/(π/3) = 1.10, to 1.07 tan θ_max: a pitch violation at every corner.
+TEST(TimeParametrization, CornersOfAClimbAtThePitchLimitKeepItFlyable) {
+  const auto vp = default_vehicle();
+  const double grade = 0.97 * std::tan(vp.max_pitch_rad);
+  const double len_m = 60.0;
+  std::vector<Vec3> w = {{0, 0, 100}};
+  for (int k = 0; k < 6; ++k) {
+    const double heading = k * kPi / 3.0;  // 60° left at every waypoint
+    w.push_back(w.back() +
+                Vec3(len_m * std::cos(heading), len_m * std::sin(heading), grade * len_m));
+  }
+  const auto r = time_parametrize(w, vp);
+  ASSERT_TRUE(r.reference.has_value()) << r.message;
+  EXPECT_EQ(r.corners_rounded, 5);
+  EXPECT_EQ(count_kind(r, LimitKind::kPitch), 0);
+  EXPECT_EQ(r.status, TimeParametrizationStatus::kOk);
+  // Every stretch is 60 m less two cuts of 0.64 m: grade × 60/58.7 (1e-6: rounding).
+  const double cut_m = 1.2 * vp.min_turn_radius_m * (std::tan(kPi / 6.0) - kPi / 6.0);
+  EXPECT_NEAR(std::tan(r.max_pitch_rad), grade * len_m / (len_m - 2.0 * cut_m), 1e-6);
+  EXPECT_LT(r.max_pitch_rad, vp.max_pitch_rad);
+  // Each waypoint's height is met where the reference passes it (its arc's midpoint): the
+  // sample nearest that time is within half a period, 0.01 s, at |ż| ≤ w_max = 3 m/s: 0.03 m.
+  ASSERT_EQ(r.waypoint_times_s.size(), w.size());
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    const auto nearest =
+        std::min_element(r.sample_times_s.begin(), r.sample_times_s.end(), [&](double a, double b) {
+          return std::abs(a - r.waypoint_times_s[k]) < std::abs(b - r.waypoint_times_s[k]);
+        });
+    const std::size_t i = static_cast<std::size_t>(nearest - r.sample_times_s.begin());
+    EXPECT_NEAR(r.samples[i].position_m.z(), w[k].z(), 0.03) << "waypoint " << k;
+  }
+}
+
 TEST(TimeParametrization, ImpossibleClimbIsReportedNotHidden) {
   auto vp = default_vehicle();
   TimeParametrizationOptions o;
