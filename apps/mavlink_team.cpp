@@ -46,25 +46,10 @@ MavlinkTeam::MavlinkTeam(const mission::Scenario& scenario, const MavlinkTeamOpt
   }
   if (options.vehicle_addresses.empty()) {
     for (std::size_t i = 0; i < n; ++i) {
-      std::vector<std::string> arguments = {"vehicle-sim",
-                                            "--udp",
-                                            "0",
-                                            "--peer",
-                                            fmt::format("127.0.0.1:{}", links[i].local_port()),
-                                            "--uav",
-                                            std::to_string(i),
-                                            "--lockstep",
-                                            "--wind",
-                                            "--cruise-start"};
-      if (!options.scenario_path.empty()) {
-        arguments.push_back("--scenario");
-        arguments.push_back(options.scenario_path);
-      }
-      processes_.spawn(arguments, options.log_dir.empty()
-                                      ? std::string()
-                                      : (options.log_dir /
-                                         fmt::format("vehicle-sim-{}.log", scenario.uavs[i].name))
-                                            .string());
+      processes_.spawn_vehicle_sim(
+          static_cast<int>(i), scenario.uavs[i].name,
+          {"--udp", "0", "--peer", fmt::format("127.0.0.1:{}", links[i].local_port())},
+          options.scenario_path, options.log_dir);
     }
   }
   mavlink::LockstepFleetOptions fo;

@@ -44,21 +44,10 @@ Px4Team::Px4Team(const mission::Scenario& scenario, const Px4TeamOptions& option
       processes_.add_external();
       continue;
     }
-    std::vector<std::string> arguments = {
-        "vehicle-sim",     "--px4-dds",    "--px4-namespace",
-        namespaces[i],     "--domain-id",  std::to_string(dds_.domain_id),
-        "--partition",     dds_.partition, "--uav",
-        std::to_string(i), "--lockstep",   "--wind",
-        "--cruise-start"};
-    if (!options.scenario_path.empty()) {
-      arguments.push_back("--scenario");
-      arguments.push_back(options.scenario_path);
-    }
-    processes_.spawn(arguments, options.log_dir.empty()
-                                    ? std::string()
-                                    : (options.log_dir /
-                                       fmt::format("vehicle-sim-{}.log", scenario.uavs[i].name))
-                                          .string());
+    processes_.spawn_vehicle_sim(static_cast<int>(i), scenario.uavs[i].name,
+                                 {"--px4-dds", "--px4-namespace", namespaces[i], "--domain-id",
+                                  std::to_string(dds_.domain_id), "--partition", dds_.partition},
+                                 options.scenario_path, options.log_dir);
   }
   px4::Px4FleetOptions fo;
   fo.period_s = period_s_;

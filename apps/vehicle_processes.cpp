@@ -25,6 +25,24 @@ std::string describe_exit(int status) {
 
 }  // namespace
 
+void VehicleProcesses::spawn_vehicle_sim(int uav, const std::string& uav_name,
+                                         std::vector<std::string> link_arguments,
+                                         const std::string& scenario_path,
+                                         const std::filesystem::path& log_dir) {
+  std::vector<std::string> arguments = {"vehicle-sim"};
+  arguments.insert(arguments.end(), link_arguments.begin(), link_arguments.end());
+  for (const std::string& a : {std::string("--uav"), std::to_string(uav), std::string("--lockstep"),
+                               std::string("--wind"), std::string("--cruise-start")})
+    arguments.push_back(a);
+  if (!scenario_path.empty()) {
+    arguments.push_back("--scenario");
+    arguments.push_back(scenario_path);
+  }
+  spawn(arguments, log_dir.empty()
+                       ? std::string()
+                       : (log_dir / fmt::format("vehicle-sim-{}.log", uav_name)).string());
+}
+
 void VehicleProcesses::spawn(const std::vector<std::string>& arguments, const std::string& log) {
   std::error_code ec;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);

@@ -5,6 +5,7 @@
 
 #include <sys/types.h>
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,13 @@ class VehicleProcesses {
   /// Starts this program with `arguments` (after its own path), its output to `log` (a file;
   /// "" discards it). Throws std::runtime_error when it cannot start (and stops the others).
   void spawn(const std::vector<std::string>& arguments, const std::string& log);
+  /// Starts `ridgeline vehicle-sim` for UAV `uav` (named `uav_name`) in lock step with wind and
+  /// a cruise start, on the link `link_arguments` chooses (--udp ..., --px4-dds ...), loading
+  /// `scenario_path` ("" = the embedded default); its output to log_dir/vehicle-sim-<name>.log
+  /// (log_dir empty: discarded). Throws as spawn().
+  void spawn_vehicle_sim(int uav, const std::string& uav_name,
+                         std::vector<std::string> link_arguments, const std::string& scenario_path,
+                         const std::filesystem::path& log_dir);
   /// A vehicle this command does not start (one the user runs).
   void add_external() { processes_.push_back({}); }
   /// Stops the running ones (SIGTERM, then SIGKILL after 3 s) and records how each ended.

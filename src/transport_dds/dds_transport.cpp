@@ -173,12 +173,11 @@ void DdsTransport::poll(double now_s) {
         [&](M&& m) {
           // Who sent it and when, as the message says; a plan comes from the ground station.
           int sender = options_.num_uavs;
-          double sent_s = 0.0;
           if constexpr (std::is_same_v<M, messages::ThreatReport>)
             sender = m.reporter;
           else if constexpr (!std::is_same_v<M, messages::ReferencePlan>)
             sender = m.uav;
-          sent_s = m.stamp_s;
+          const double sent_s = m.stamp_s;
           const bool delayed = emulate && !std::is_same_v<M, messages::ReferencePlan>;
           accept(std::move(m), sender, sent_s, now_s, delayed);
         },
