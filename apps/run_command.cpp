@@ -184,10 +184,8 @@ void register_run_command(CLI::App& app) {
       mo.scenario_path = args->scenario;
       mo.vehicle_addresses = args->mavlink_vehicles;
       mo.timeout_s = args->mavlink_timeout_s;
-      if (mo.vehicle_addresses.empty()) {
-        mo.log_dir = dir / "logs";
-        std::filesystem::create_directories(mo.log_dir);
-      }
+      // Created by the first vehicle spawned: a refused option leaves nothing behind.
+      if (mo.vehicle_addresses.empty()) mo.log_dir = dir / "logs";
       team = std::make_unique<MavlinkTeam>(flown_scenario, mo);
       options.vehicles = team.get();
       std::cerr << fmt::format("run: {} UAVs through MAVLink vehicles ({}), lock step\n",
@@ -205,10 +203,7 @@ void register_run_command(CLI::App& app) {
       const int pid = static_cast<int>(::getpid());
       po.dds.domain_id = args->domain_id.value_or(100 + pid % 100);
       po.dds.partition = args->partition.value_or(fmt::format("ridgeline-px4-{}", pid));
-      if (!po.external) {
-        po.log_dir = dir / "logs";
-        std::filesystem::create_directories(po.log_dir);
-      }
+      if (!po.external) po.log_dir = dir / "logs";  // created by the first vehicle spawned
       px4_team = std::make_unique<Px4Team>(flown_scenario, po);
       options.vehicles = px4_team.get();
       std::cerr << fmt::format(

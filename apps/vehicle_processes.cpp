@@ -38,6 +38,7 @@ void VehicleProcesses::spawn_vehicle_sim(int uav, const std::string& uav_name,
     arguments.push_back("--scenario");
     arguments.push_back(scenario_path);
   }
+  if (!log_dir.empty()) std::filesystem::create_directories(log_dir);
   spawn(arguments, log_dir.empty()
                        ? std::string()
                        : (log_dir / fmt::format("vehicle-sim-{}.log", uav_name)).string());

@@ -25,7 +25,7 @@ class VehicleProcesses {
   /// Starts `ridgeline vehicle-sim` for UAV `uav` (named `uav_name`) in lock step with wind and
   /// a cruise start, on the link `link_arguments` chooses (--udp ..., --px4-dds ...), loading
   /// `scenario_path` ("" = the embedded default); its output to log_dir/vehicle-sim-<name>.log
-  /// (log_dir empty: discarded). Throws as spawn().
+  /// (log_dir, created if missing; empty: discarded). Throws as spawn().
   void spawn_vehicle_sim(int uav, const std::string& uav_name,
                          std::vector<std::string> link_arguments, const std::string& scenario_path,
                          const std::filesystem::path& log_dir);
