@@ -7,8 +7,13 @@
 // solver on the instances of an RLQP file in order, hot-started as the MPC does, against the
 // unconstrained Cholesky floor and a tight reference. Figures are medians and ratios from one
 // run: absolute times vary on shared machines.
+// `ridgeline bench swarm [--uavs 8,16,32] [--latency-ms 0,100,300] [--loss 0.2] [--runs 100]
+// [--threads 2] [--radius-m 250] [--scenario FILE] [--out DIR]`: circle swaps over the
+// scenario's terrain (benchmarks/swarm_benchmark.hpp), a table like RMADER's; DIR gets
+// swarm.json and swarm.md.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 
 #include "apps/command_support.hpp"
@@ -18,6 +23,8 @@
 #include "benchmarks/plan_benchmark.hpp"
 #include "benchmarks/qp_benchmark.hpp"
 #include "benchmarks/replan_benchmark.hpp"
+#include "benchmarks/swarm_benchmark.hpp"
+#include "io/atomic_file.hpp"
 #include "core/error.hpp"
 #include "mission/stage_inputs.hpp"
 #include "qp/qp_instance_file.hpp"
@@ -208,6 +215,76 @@ void register_bench_command(CLI::App& app) {
               << " us, failures " << report.failures.size() << ", fallbacks " << report.fallbacks
               << ", max violation " << report.max_violation << ", max rel. objective gap "
               << report.max_rel_objective_gap << '\n';
+  });
+  struct SwarmCommandOptions {
+    std::string scenario;
+    std::vector<int> uavs = {8, 16, 32};
+    std::vector<double> latencies_ms = {0.0, 100.0, 300.0};
+    benchmarks::SwarmBenchmarkOptions benchmark;
+    std::string out;
+    std::uint64_t replay = 0;
+  };
+  auto swarm_options = std::make_shared<SwarmCommandOptions>();
+  CLI::App* swarm = bench->add_subcommand(
+      "swarm", "Circle swaps over terrain under link latency and loss: collision-free and "
+               "completion rates");
+  swarm->add_option("--scenario", swarm_options->scenario,
+                    "Scenario YAML whose terrain, wind, limits and layers are used (default: "
+                    "embedded)");
+  swarm->add_option("--uavs", swarm_options->uavs, "team sizes")->delimiter(',')
+      ->capture_default_str();
+  swarm->add_option("--latency-ms", swarm_options->latencies_ms, "link latencies (ms)")
+      ->delimiter(',')->capture_default_str();
+  swarm->add_option("--loss", swarm_options->benchmark.loss_rate, "message loss rate")
+      ->capture_default_str();
+  swarm->add_option("--runs", swarm_options->benchmark.runs, "seeded runs a cell")
+      ->capture_default_str();
+  swarm->add_option("--threads", swarm_options->benchmark.threads, "worker threads")
+      ->capture_default_str();
+  swarm->add_option("--radius-m", swarm_options->benchmark.radius_m, "circle radius")
+      ->capture_default_str();
+  swarm->add_option("--out", swarm_options->out, "folder for swarm.json and swarm.md");
+  swarm->add_option("--replay", swarm_options->replay,
+                    "fly one run again by its seed (one --uavs, one --latency-ms): DIR gets its "
+                    "metrics.json and trajectories.csv");
+  swarm->callback([swarm_options] {
+    benchmarks::SwarmBenchmarkOptions o = swarm_options->benchmark;
+    o.team_sizes = swarm_options->uavs;
+    o.latencies_s.clear();
+    for (double ms : swarm_options->latencies_ms) o.latencies_s.push_back(ms * 1e-3);
+    if (!std::isfinite(o.radius_m)) throw InputError("--radius-m", "must be finite");
+    const io::LoadedScenario loaded = load_scenario_argument(swarm_options->scenario);
+    if (swarm_options->replay != 0) {
+      if (o.team_sizes.size() != 1 || o.latencies_s.size() != 1)
+        throw InputError("--replay", "needs exactly one --uavs and one --latency-ms");
+      if (swarm_options->out.empty()) throw InputError("--replay", "needs --out DIR");
+      mission::Scenario flown;
+      const mission::MissionResult r = benchmarks::replay_swarm_run(
+          loaded.scenario, loaded.terrain, o.team_sizes.front(), o.radius_m,
+          o.latencies_s.front(), o.loss_rate, swarm_options->replay, &flown);
+      const std::filesystem::path dir(swarm_options->out);
+      std::filesystem::create_directories(dir);
+      io::write_file_atomically(dir / "metrics.json", mission::to_json(r.metrics).dump(2) + "\n");
+      io::write_file_atomically(dir / "trajectories.csv",
+                                mission::trajectories_csv(r.trajectories, flown));
+      std::cout << "min separation " << r.metrics.min_separation_m << " m; wrote metrics.json and "
+                << "trajectories.csv to " << dir.string() << '\n';
+      return;
+    }
+    o.progress = [](const std::string& cell, int done, int total, int failed) {
+      if (done == total || done % 10 == 0)
+        std::cerr << cell << ": " << done << "/" << total << " runs, " << failed << " failed\n";
+    };
+    const benchmarks::SwarmBenchmarkReport report =
+        benchmarks::run_swarm_benchmark(loaded.scenario, loaded.terrain, o);
+    const std::string table = report.to_markdown();
+    std::cout << table;
+    if (!swarm_options->out.empty()) {
+      const std::filesystem::path dir(swarm_options->out);
+      std::filesystem::create_directories(dir);
+      io::write_file_atomically(dir / "swarm.json", report.to_json().dump(2) + "\n");
+      io::write_file_atomically(dir / "swarm.md", table);
+    }
   });
 }
 

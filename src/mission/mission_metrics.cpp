@@ -46,6 +46,7 @@ nlohmann::json to_json(const MissionMetrics& m) {
                     {"neighbour_conflicts", u.neighbour_conflicts},
                     {"replan_failures", u.replan_failures},
                     {"rejoins", u.rejoins},
+                    {"level_changes", u.level_changes},
                     {"fallback_steps", u.fallback_steps},
                     {"qp_failures", u.qp_failures},
                     {"stale_neighbour_steps", u.stale_neighbour_steps},
@@ -54,6 +55,16 @@ nlohmann::json to_json(const MissionMetrics& m) {
   }
   return {{"uavs", uavs},
           {"min_separation_m", finite_or_null(m.min_separation_m)},
+          {"min_separation_between",
+           m.min_separation_pair.first >= 0 && m.min_separation_pair.second >= 0 &&
+                   static_cast<std::size_t>(m.min_separation_pair.second) < m.uavs.size()
+               ? nlohmann::json::array(
+                     {m.uavs[static_cast<std::size_t>(m.min_separation_pair.first)].name,
+                      m.uavs[static_cast<std::size_t>(m.min_separation_pair.second)].name})
+               : nlohmann::json(nullptr)},
+          {"min_separation_time_s", m.min_separation_pair.first >= 0
+                                        ? nlohmann::json(m.min_separation_time_s)
+                                        : nlohmann::json(nullptr)},
           {"min_threat_distance_m", finite_or_null(m.min_threat_distance_m)},
           {"threat_encounters", m.threat_encounters},
           {"threat_intrusions", m.threat_intrusions},

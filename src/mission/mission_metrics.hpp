@@ -7,6 +7,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/types.hpp"
@@ -40,6 +41,7 @@ struct UavMetrics {
   long long neighbour_conflicts = 0;  ///< re-plans that yielded to a neighbour
   long long replan_failures = 0;
   long long rejoins = 0;
+  long long level_changes = 0;  ///< separation levels the agent chose (swarm/agent.hpp)
   long long fallback_steps = 0;
   long long qp_failures = 0;
   long long stale_neighbour_steps = 0;
@@ -50,6 +52,8 @@ struct UavMetrics {
 struct MissionMetrics {
   std::vector<UavMetrics> uavs;
   double min_separation_m = 0.0;        ///< over pairs and time; +inf for one UAV (→ null)
+  std::pair<int, int> min_separation_pair{-1, -1};  ///< the UAVs (indices) of that approach
+  double min_separation_time_s = 0.0;               ///< and when it happened
   double min_threat_distance_m = 0.0;   ///< to the threat surface; +inf without threats
   int threat_encounters = 0;            ///< (UAV, threat) pairs where the UAV sensed it
   int threat_intrusions = 0;            ///< (UAV, threat) pairs that ever were inside it

@@ -34,7 +34,11 @@ void SafetyTally::sample(double t, const TruthWorld& world) {
     clearance = std::min(clearance, p.z() - terrain_.height(p.x(), p.y()));
     for (int j = i + 1; j < n; ++j) {
       const double d = (p - world.true_position(j)).norm();
-      min_separation_m_ = std::min(min_separation_m_, d);
+      if (d < min_separation_m_) {
+        min_separation_m_ = d;
+        closest_pair_ = {i, j};
+        closest_time_s_ = t;
+      }
       if (d < separation_m_) close_pairs_.insert({i, j});
     }
     for (std::size_t k = 0; k < world.threats().size(); ++k) {
@@ -49,6 +53,8 @@ void SafetyTally::sample(double t, const TruthWorld& world) {
 
 void SafetyTally::write(MissionMetrics& m) const {
   m.min_separation_m = min_separation_m_;
+  m.min_separation_pair = closest_pair_;
+  m.min_separation_time_s = closest_time_s_;
   m.min_threat_distance_m = min_threat_m_;
   std::set<std::pair<int, int>> encounters = encounters_;
   encounters.insert(intrusions_.begin(), intrusions_.end());

@@ -38,6 +38,8 @@ class SafetyTally {
   double separation_m_, threat_margin_m_;
   std::vector<double> min_clearance_m_;
   double min_separation_m_, min_threat_m_;
+  std::pair<int, int> closest_pair_{-1, -1};
+  double closest_time_s_ = 0.0;
   std::set<std::pair<int, int>> encounters_, intrusions_, margin_violations_, close_pairs_;
   std::map<std::pair<int, int>, ThreatEscape> escapes_;  ///< at each pair's first sensing
 };

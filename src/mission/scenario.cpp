@@ -146,7 +146,12 @@ std::vector<InputError> validate(const Scenario& s, const world::Terrain& terrai
     }
   }
 
-  if (s.targets.empty()) c.fail("targets", "at least one inspection target is needed");
+  // A mission without targets is a ferry flight: every UAV must then have somewhere to go.
+  const bool every_uav_has_end =
+      !s.uavs.empty() && std::all_of(s.uavs.begin(), s.uavs.end(),
+                                     [](const UavSpec& u) { return u.end_position_m.has_value(); });
+  if (s.targets.empty() && !every_uav_has_end)
+    c.fail("targets", "at least one inspection target is needed (or an end for every UAV)");
   check_unique_names(c, "targets", s.targets);
   for (std::size_t i = 0; i < s.targets.size(); ++i) {
     const InspectionTarget& t = s.targets[i];

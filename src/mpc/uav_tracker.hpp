@@ -33,7 +33,8 @@
 //     prediction, else the reference), each with a slack shared by its kind:
 //       threat    n_jᵀ(p_j − c_j) ≥ R + r_safe + m_j,  c_j = c_0 + v_T(t_j − t_appear),
 //                 n_j = (p̄_j − c_j)/|p̄_j − c_j|, for t_appear ≤ t_j ≤ t_vanish;
-//       neighbour n_jᵀ(p_j − q_j) ≥ d_safe, q_j the neighbour's broadcast prediction at t_j;
+//       neighbour n_jᵀ(p_j − q_j) ≥ d_k, q_j the neighbour's broadcast prediction at t_j and d_k
+//                 the distance the environment gives for it (d_safe by default);
 //       terrain   z_j − ∇H(p̄_j)·(p_j − p̄_j)_xy ≥ H(p̄_j) + h_safe + m_j + e_H (e_H the
 //                 terrain model's known error).
 //     The robust margin m_j = min(ē_W·(j+1)Δt_p, m_max) is the position error a wind error
@@ -126,6 +127,10 @@ struct TrackerEnvironment {
   std::span<const world::Threat> threats;
   std::span<const messages::PredictedTrajectory> neighbours;  ///< as broadcast (messages/)
   const world::Terrain* terrain = nullptr;
+  /// The distance each neighbour's rows keep (same length as `neighbours`, nearest first:
+  /// the capacity keeps the first); empty: d_safe for every one. The agent's separation
+  /// protocol sets it (swarm/agent.hpp): d_safe plus its margins for a neighbour it yields to.
+  std::span<const double> neighbour_separation_m = {};
 };
 
 /// Where one step's time went, in wall-clock µs (steady clock: cheap to read, so the parts

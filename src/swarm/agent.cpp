@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -56,6 +57,11 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
   require(options.neighbour_conflict_margin_m >= 0.0 &&
               std::isfinite(options.neighbour_conflict_margin_m),
           "neighbour_conflict_margin_m", "must be finite and >= 0");
+  for (const auto& [value, field] :
+       {std::pair{options.separation_margin_m, "separation_margin_m"},
+        std::pair{options.age_margin_m_s, "age_margin_m_s"},
+        std::pair{options.max_age_margin_m, "max_age_margin_m"}})
+    require(value >= 0.0 && std::isfinite(value), field, "must be finite and >= 0");
   require(options.rejoin_distance_m > 0.0 && options.lost_reference_m > options.rejoin_distance_m,
           "lost_reference_m", "must exceed rejoin_distance_m > 0");
   require(options.position_filter_gain > 0.0 && options.position_filter_gain <= 1.0,
@@ -185,6 +191,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
     reference_->rejoin(t_s, position_m, 120.0, 30.0);
     ++counters_.rejoins;
   }
+  choose_level(t_s);
   threat_buffer_ = known_threats();
   const int yielded = add_neighbour_conflicts(t_s, threat_buffer_);
   if (options_.optimizer_replan && t_s < reference_->plan_end_time_s() - 1.0) {
@@ -232,6 +239,88 @@ void Agent::replan(double t_s, const Vec3& position_m) {
   }
 }
 
+Vec3 Agent::extrapolate(const PredictedTrajectory& p, double t_s) {
+  const int count = static_cast<int>(p.positions_m.size());
+  if (count == 0) return Vec3::Zero();
+  const double end_s = p.stamp_s + p.step_s * count;
+  if (count < 2 || t_s <= end_s) return messages::predicted_position(p, t_s);
+  // Mean horizontal velocity over the prediction: the last segment alone magnifies a turn's
+  // end; the altitude is held (a climb toward a level stops there).
+  Vec3 velocity = (p.positions_m.back() - p.positions_m.front()) / (p.step_s * (count - 1));
+  velocity.z() = 0.0;
+  return p.positions_m.back() + velocity * (t_s - end_s);
+}
+
+void Agent::choose_level(double t_s) {
+  if (options_.max_levels <= 0) return;
+  constexpr double kStep = 0.5;  // s
+  const double spacing = options_.level_spacing_m;
+  const double crossing = limits_.separation_m + options_.neighbour_conflict_margin_m;
+  const int samples = static_cast<int>(options_.level_lookahead_s / kStep) + 1;
+  // Candidate offsets, nearest the current level first.
+  const double now = reference_->level_at(t_s);
+  candidates_.clear();
+  for (int k = -options_.max_levels; k <= options_.max_levels; ++k) candidates_.push_back(k * spacing);
+  std::stable_sort(candidates_.begin(), candidates_.end(), [&](double a, double b) {
+    const double da = std::abs(a - now), db = std::abs(b - now);
+    return da != db ? da < db : a > b;  // equal: up first (away from the terrain)
+  });
+  bool any_conflict = false;
+  blocked_.assign(candidates_.size(), false);
+  for (int i = 0; i < samples; ++i) {
+    const double tau = t_s + i * kStep;
+    const Vec3 r = reference_->at(tau).position_m;
+    const double base_z = r.z() - reference_->level_at(tau);
+    const double ground = terrain_->height(r.x(), r.y());
+    for (std::size_t c = 0; c < candidates_.size(); ++c) {
+      const double z = base_z + candidates_[c];
+      if (z < ground + limits_.terrain_clearance_m + options_.level_terrain_margin_m ||
+          z < limits_.altitude.min_m + options_.level_terrain_margin_m ||
+          z > limits_.altitude.max_m - options_.level_terrain_margin_m)
+        blocked_[c] = true;
+    }
+    for (const auto& [id, n] : neighbours_) {
+      if (!yields_to(id, n.prediction)) continue;
+      const PredictedTrajectory& p = n.prediction;
+      const Vec3 q = extrapolate(p, tau);
+      if ((q.head<2>() - r.head<2>()).norm() >= crossing) continue;
+      any_conflict = true;
+      // Beyond its prediction a neighbour climbing toward its own level may go on climbing:
+      // the band it may occupy runs from the held altitude along its climb, up to two levels.
+      const std::size_t count = p.positions_m.size();
+      const double end_s = p.stamp_s + p.step_s * static_cast<double>(count);
+      const double climb =
+          count >= 2 ? (p.positions_m.back().z() - p.positions_m.front().z()) /
+                           (p.step_s * static_cast<double>(count - 1))
+                     : 0.0;
+      const double drift =
+          std::clamp(climb * std::max(0.0, tau - end_s), -2.0 * spacing, 2.0 * spacing);
+      const double low = q.z() + std::min(0.0, drift), high = q.z() + std::max(0.0, drift);
+      for (std::size_t c = 0; c < candidates_.size(); ++c) {
+        const double z = base_z + candidates_[c];
+        if (z > low - spacing && z < high + spacing) blocked_[c] = true;
+      }
+    }
+  }
+  double target = reference_->level_target_m();
+  if (!any_conflict) {
+    target = 0.0;  // back to the plan's altitude
+  } else {
+    for (std::size_t c = 0; c < candidates_.size(); ++c) {
+      if (!blocked_[c]) {
+        target = candidates_[c];
+        break;
+      }
+    }
+  }
+  if (target == reference_->level_target_m()) return;
+  const vehicle::VehicleParams& v = options_.tracker.vehicle;
+  const double rate =
+      0.7 * std::min(v.max_climb_rate_m_s, v.min_speed_m_s() * std::tan(v.max_pitch_rad));
+  reference_->set_level(t_s, target, rate);
+  ++counters_.level_changes;
+}
+
 int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const {
   const double d_safe = limits_.separation_m;
   const double conflict_distance = d_safe + options_.neighbour_conflict_margin_m;
@@ -256,7 +345,10 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
     if (!(id < options_.id || stationary)) continue;  // the other one yields
     bool conflict = false;
     for (double tau = t_s; tau <= t_s + horizon && !conflict; tau += kCheckStep) {
-      conflict = (neighbour_at(tau) - reference_->at(tau).position_m).norm() < conflict_distance;
+      const Vec3 gap = neighbour_at(tau) - reference_->at(tau).position_m;
+      // A crossing a level apart is resolved vertically (choose_level).
+      conflict = gap.head<2>().norm() < conflict_distance &&
+                 std::abs(gap.z()) < options_.level_spacing_m - 1.0;
     }
     if (!conflict) continue;
     world::Threat obstacle;
@@ -270,6 +362,52 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
     ++added;
   }
   return added;
+}
+
+bool Agent::yields_to(int neighbour, const PredictedTrajectory& prediction) const {
+  if (neighbour < options_.id) return true;
+  // A (nearly) stationary neighbour, e.g. finished and holding, cannot give way.
+  const std::size_t n = prediction.positions_m.size();
+  if (n < 2) return true;
+  constexpr double kStationary = 0.5;  // m/s
+  const double span_s = prediction.step_s * static_cast<double>(n - 1);
+  return (prediction.positions_m.back() - prediction.positions_m.front()).norm() <
+         kStationary * span_s;
+}
+
+void Agent::select_neighbours(double t_s, const Vec3& position_m) {
+  const mpc::UavTrackerOptions& tracker = options_.tracker;
+  const double horizon_s = tracker.prediction_step_s * tracker.prediction_horizon;
+  const double v_max = tracker.vehicle.max_speed_m_s();
+  const double d_safe = limits_.separation_m;
+  // Two UAVs farther apart than this cannot come within a row's activation distance of
+  // d_safe (plus every margin) within the horizon, whatever either does.
+  const double reach = 2.0 * v_max * horizon_s + d_safe + options_.separation_margin_m +
+                       options_.max_age_margin_m + tracker.activation_distance_m;
+  nearby_.clear();
+  bool stale = false;
+  for (const auto& [id, n] : neighbours_) {
+    const double age = std::max(0.0, t_s - n.prediction.stamp_s);
+    stale = stale || age > options_.neighbour_stale_s;
+    const double distance = (messages::predicted_position(n.prediction, t_s) - position_m).norm();
+    if (distance <= reach + v_max * age) nearby_.push_back({distance, id});
+  }
+  counters_.stale_neighbour_steps += stale ? 1 : 0;
+  std::sort(nearby_.begin(), nearby_.end());
+  const std::size_t count =
+      std::min<std::size_t>(nearby_.size(), static_cast<std::size_t>(tracker.max_neighbours));
+  neighbour_buffer_.resize(count);
+  neighbour_separation_.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    const int id = nearby_[k].second;
+    const PredictedTrajectory& p = neighbours_.at(id).prediction;
+    neighbour_buffer_[k] = p;  // reuses the element's capacity
+    const double age = std::max(0.0, t_s - p.stamp_s);
+    neighbour_separation_[k] =
+        yields_to(id, p) ? d_safe + options_.separation_margin_m +
+                               std::min(options_.age_margin_m_s * age, options_.max_age_margin_m)
+                         : d_safe;
+  }
 }
 
 vehicle::Input Agent::fallback_command(double t_s, const vehicle::State& state) const {
@@ -330,14 +468,9 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
   if (replan_requested_ || t_s - last_replan_s_ >= options_.replan_period_s) replan(t_s, position);
 
   threat_buffer_ = known_threats();
-  neighbour_buffer_.clear();
-  bool stale = false;
-  for (const auto& [id, n] : neighbours_) {
-    neighbour_buffer_.push_back(n.prediction);
-    stale = stale || t_s - n.prediction.stamp_s > options_.neighbour_stale_s;
-  }
-  counters_.stale_neighbour_steps += stale ? 1 : 0;
-  const mpc::TrackerEnvironment environment{threat_buffer_, neighbour_buffer_, terrain_.get()};
+  select_neighbours(t_s, position);
+  const mpc::TrackerEnvironment environment{threat_buffer_, neighbour_buffer_, terrain_.get(),
+                                            neighbour_separation_};
 
   if (mode_ == AgentMode::kFallback) tracker_.reset(last_command_);
   const mpc::UavTrackerResult& r =

@@ -85,6 +85,21 @@ struct AgentOptions {
   double replan_period_s = 1.0;
   double neighbour_lookahead_s = 8.0;      ///< > 0; how far a neighbour's motion is extrapolated
   double neighbour_conflict_margin_m = 10.0;  ///< ≥ 0, added to d_safe for the conflict test
+  /// The separation protocol's margins (file comment): the MPC rows against a neighbour this
+  /// UAV yields to keep d_safe + separation_margin_m + min(age_margin_m_s·age,
+  /// max_age_margin_m), with `age` the age of that neighbour's newest prediction.
+  double separation_margin_m = 2.0;
+  /// Levels: a UAV that yields to neighbours whose extrapolated paths cross its reference
+  /// horizontally (within d_safe + neighbour_conflict_margin_m) within level_lookahead_s
+  /// moves its whole reference up or down by a multiple of level_spacing_m (at most
+  /// max_levels each way, inside the altitude band and h_safe + level_terrain_margin_m above
+  /// the terrain) to the nearest level none of them occupies there.
+  double level_spacing_m = 15.0;
+  double level_lookahead_s = 20.0;
+  int max_levels = 4;
+  double level_terrain_margin_m = 10.0;
+  double age_margin_m_s = 5.0;
+  double max_age_margin_m = 10.0;
   double rejoin_distance_m = 40.0;
   double lost_reference_m = 120.0;
   double missed_after_s = 30.0;
@@ -164,8 +179,19 @@ class Agent final : public UavAgent {
   /// of `position_m` during [t, t + finish_threat_guard_s].
   bool hold_point_threatened(double t_s, const Vec3& position_m) const;
   void replan(double t_s, const Vec3& position_m);
+  /// The separation protocol's level (file comment, AgentOptions::level_spacing_m).
+  void choose_level(double t_s);
+  /// A neighbour's position at t from its newest prediction: the prediction inside it, then
+  /// horizontally at its mean velocity at the last predicted altitude.
+  static Vec3 extrapolate(const PredictedTrajectory& p, double t_s);
   /// Neighbours this UAV must yield to, as moving obstacles (appended to `obstacles`).
   int add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const;
+  /// The separation protocol's priority: this UAV yields to a neighbour with a lower id, and
+  /// to a (nearly) stationary one.
+  bool yields_to(int neighbour, const PredictedTrajectory& prediction) const;
+  /// The neighbours whose rows enter the MPC this step: those within reach, nearest first, up
+  /// to the tracker's capacity, each with the distance its rows keep.
+  void select_neighbours(double t_s, const Vec3& position_m);
   vehicle::Input fallback_command(double t_s, const vehicle::State& state) const;
   void forget_old_threats(double t_s);
 
@@ -177,7 +203,11 @@ class Agent final : public UavAgent {
   std::map<int, KnownThreat> threats_;
   std::map<int, KnownNeighbour> neighbours_;
   std::vector<world::Threat> threat_buffer_;
-  std::vector<PredictedTrajectory> neighbour_buffer_;
+  std::vector<PredictedTrajectory> neighbour_buffer_;  ///< the MPC's neighbours, nearest first
+  std::vector<double> neighbour_separation_;          ///< the distance each one's rows keep
+  std::vector<std::pair<double, int>> nearby_;        ///< (distance now, id) within reach
+  std::vector<double> candidates_;  ///< choose_level's offsets
+  std::vector<bool> blocked_;
   AgentMode mode_ = AgentMode::kTracking;
   int next_target_ = 0;
   std::vector<std::string> missed_;

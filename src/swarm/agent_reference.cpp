@@ -15,9 +15,29 @@ AgentReference::AgentReference(std::shared_ptr<const mpc::SampledReference> plan
 mpc::ReferencePoint AgentReference::plan_at(double t_s) const { return plan_->at(t_s - delay_s_); }
 
 mpc::ReferencePoint AgentReference::at(double t_s) const {
-  if (detour_ && t_s >= detour_->start_time_s() && t_s <= detour_->end_time_s())
-    return detour_->at(t_s);
-  return plan_at(t_s);
+  mpc::ReferencePoint p = detour_ && t_s >= detour_->start_time_s() && t_s <= detour_->end_time_s()
+                              ? detour_->at(t_s)
+                              : plan_at(t_s);
+  if (level_target_m_ != 0.0 || level_from_m_ != 0.0) {
+    const double level = level_at(t_s);
+    p.position_m.z() += level;
+    if (level != level_target_m_ && t_s >= level_since_s_)
+      p.climb_rate_m_s += level_target_m_ > level ? level_rate_m_s_ : -level_rate_m_s_;
+  }
+  return p;
+}
+
+void AgentReference::set_level(double t_s, double target_m, double rate_m_s) {
+  level_from_m_ = level_at(t_s);
+  level_since_s_ = t_s;
+  level_target_m_ = target_m;
+  level_rate_m_s_ = rate_m_s;
+}
+
+double AgentReference::level_at(double t_s) const {
+  const double moved = level_rate_m_s_ * std::max(0.0, t_s - level_since_s_);
+  const double gap = level_target_m_ - level_from_m_;
+  return std::abs(gap) <= moved ? level_target_m_ : level_from_m_ + std::copysign(moved, gap);
 }
 
 double AgentReference::rejoin(double t_s, const Vec3& position_m, double max_back_s,

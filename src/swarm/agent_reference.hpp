@@ -9,6 +9,8 @@
 //    longer guarantees.
 //  - a detour over a window [t_a, t_b] around known moving threats (detour()). Outside the
 //    window r is the delayed plan, so the detour joins it continuously.
+//  - a level: a vertical offset of the whole reference (set_level()), the separation
+//    protocol's way of crossing a neighbour's path above or below it.
 #pragma once
 
 #include <memory>
@@ -40,6 +42,13 @@ class AgentReference : public mpc::ReferenceTrajectory {
   /// r(t) is that point, and drops any detour. Returns the new delay.
   double rejoin(double t_s, const Vec3& position_m, double max_back_s, double max_ahead_s);
 
+  /// The separation protocol's level (agent.hpp): the whole reference raised (or lowered) by
+  /// an offset that moves from its value at t toward `target_m` at `rate_m_s`, so a UAV can
+  /// cross another's path above or below it. The detour and the delay apply beneath it.
+  void set_level(double t_s, double target_m, double rate_m_s);
+  double level_at(double t_s) const;
+  double level_target_m() const { return level_target_m_; }
+
   /// Replaces the detour (or removes it with std::nullopt). The detour must start and end on
   /// the delayed plan (built by plan_detour below).
   void set_detour(std::optional<mpc::SampledReference> detour);
@@ -48,6 +57,10 @@ class AgentReference : public mpc::ReferenceTrajectory {
   std::shared_ptr<const mpc::SampledReference> plan_;
   double delay_s_ = 0.0;
   std::optional<mpc::SampledReference> detour_;
+  double level_from_m_ = 0.0;    ///< the offset at level_since_s_
+  double level_target_m_ = 0.0;
+  double level_since_s_ = 0.0;
+  double level_rate_m_s_ = 1.0;
 };
 
 struct DetourOptions {
