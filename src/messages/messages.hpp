@@ -23,8 +23,12 @@ struct PredictedTrajectory {
   double stamp_s = 0.0;
   double step_s = 0.1;  ///< > 0
   std::vector<Vec3> positions_m;
+  /// How far the sender's reference has still to move vertically toward its separation level
+  /// (swarm/agent.hpp): beyond the prediction its altitude goes that much further.
+  double level_shift_m = 0.0;
 };
-RIDGELINE_WIRE_FIELDS(PredictedTrajectory, "PredictedTrajectory", uav, stamp_s, step_s, positions_m)
+RIDGELINE_WIRE_FIELDS(PredictedTrajectory, "PredictedTrajectory", uav, stamp_s, step_s, positions_m,
+                      level_shift_m)
 
 /// The predicted position at time t (needs ≥ 1 position): linear between the samples, the
 /// nearest segment extended outside them.

@@ -287,15 +287,9 @@ void Agent::choose_level(double t_s) {
       any_conflict = true;
       // Beyond its prediction a neighbour climbing toward its own level may go on climbing:
       // the band it may occupy runs from the held altitude along its climb, up to two levels.
-      const std::size_t count = p.positions_m.size();
-      const double end_s = p.stamp_s + p.step_s * static_cast<double>(count);
-      const double climb =
-          count >= 2 ? (p.positions_m.back().z() - p.positions_m.front().z()) /
-                           (p.step_s * static_cast<double>(count - 1))
-                     : 0.0;
-      const double drift =
-          std::clamp(climb * std::max(0.0, tau - end_s), -2.0 * spacing, 2.0 * spacing);
-      const double low = q.z() + std::min(0.0, drift), high = q.z() + std::max(0.0, drift);
+      // It occupies its altitude now and everything up to where its level change ends.
+      const double low = q.z() + std::min(0.0, p.level_shift_m);
+      const double high = q.z() + std::max(0.0, p.level_shift_m);
       for (std::size_t c = 0; c < candidates_.size(); ++c) {
         const double z = base_z + candidates_[c];
         if (z > low - spacing && z < high + spacing) blocked_[c] = true;
@@ -306,17 +300,22 @@ void Agent::choose_level(double t_s) {
   if (!any_conflict) {
     target = 0.0;  // back to the plan's altitude
   } else {
-    for (std::size_t c = 0; c < candidates_.size(); ++c) {
-      if (!blocked_[c]) {
-        target = candidates_[c];
-        break;
+    // Keep the level being flown to while it stays free: a level that changes at every
+    // re-plan is one the others cannot plan around.
+    const auto current = std::find(candidates_.begin(), candidates_.end(), target);
+    if (current == candidates_.end() || blocked_[static_cast<std::size_t>(current - candidates_.begin())]) {
+      for (std::size_t c = 0; c < candidates_.size(); ++c) {
+        if (!blocked_[c]) {
+          target = candidates_[c];
+          break;
+        }
       }
     }
   }
   if (target == reference_->level_target_m()) return;
   const vehicle::VehicleParams& v = options_.tracker.vehicle;
   const double rate =
-      0.7 * std::min(v.max_climb_rate_m_s, v.min_speed_m_s() * std::tan(v.max_pitch_rad));
+      0.9 * std::min(v.max_climb_rate_m_s, v.min_speed_m_s() * std::tan(v.max_pitch_rad));
   reference_->set_level(t_s, target, rate);
   ++counters_.level_changes;
 }
@@ -510,6 +509,7 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     p.positions_m.reserve(static_cast<std::size_t>(r.predicted_positions_m.cols()));
     for (Eigen::Index j = 0; j < r.predicted_positions_m.cols(); ++j)
       p.positions_m.emplace_back(r.predicted_positions_m.col(j));
+    p.level_shift_m = reference_->level_target_m() - reference_->level_at(t_s);
     prediction_ = std::move(p);
   }
   return out;

@@ -88,14 +88,14 @@ struct AgentOptions {
   /// The separation protocol's margins (file comment): the MPC rows against a neighbour this
   /// UAV yields to keep d_safe + separation_margin_m + min(age_margin_m_s·age,
   /// max_age_margin_m), with `age` the age of that neighbour's newest prediction.
-  double separation_margin_m = 2.0;
+  double separation_margin_m = 4.0;
   /// Levels: a UAV that yields to neighbours whose extrapolated paths cross its reference
   /// horizontally (within d_safe + neighbour_conflict_margin_m) within level_lookahead_s
   /// moves its whole reference up or down by a multiple of level_spacing_m (at most
   /// max_levels each way, inside the altitude band and h_safe + level_terrain_margin_m above
   /// the terrain) to the nearest level none of them occupies there.
   double level_spacing_m = 15.0;
-  double level_lookahead_s = 20.0;
+  double level_lookahead_s = 30.0;
   int max_levels = 4;
   double level_terrain_margin_m = 10.0;
   double age_margin_m_s = 5.0;
