@@ -17,6 +17,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// In flight, odometry missing this long ends the flight: PX4 gives up on a companion whose
+/// offboard stream stops for its COM_OF_LOSS_T (default 1 s); the companion gives up on a
+/// vehicle the same way, instead of steering on a stale state.
+constexpr double kOdometryLossS = 1.0;
+
 template <class M>
 std::string topic_of(const transport_dds::Px4Link& link) {
   return transport_dds::px4_topic_name(transport_dds::Topic<M>::spec.name,
@@ -35,6 +40,7 @@ Px4PilotReport fly_px4_pilot(mavlink::OffboardPilot& pilot, transport_dds::Px4Li
   std::vector<mavlink::Message> out;
   bool have_state = false, armed = false;
   double next_tick = 0.0;
+  double last_state_s = 0.0;  // when usable odometry last arrived
   while (!stop.load() && !pilot.done()) {
     for (double wait = next_tick - elapsed(); wait > 0.0; wait = next_tick - elapsed()) {
       if (!link.wait(wait)) continue;
@@ -53,6 +59,7 @@ Px4PilotReport fly_px4_pilot(mavlink::OffboardPilot& pilot, transport_dds::Px4Li
             continue;
           }
           have_state = true;
+          last_state_s = now;
           pilot.handle(s.report->position, now);
           pilot.handle(s.report->attitude, now);
         } else if (const auto* st = std::get_if<msg::VehicleStatus>(&r.message)) {
@@ -81,6 +88,14 @@ Px4PilotReport fly_px4_pilot(mavlink::OffboardPilot& pilot, transport_dds::Px4Li
                                          start_timeout_s, mavlink::to_string(pilot.phase()),
                                          waited));
     }
+    if (pilot.phase() == mavlink::PilotPhase::kFlying && now - last_state_s > kOdometryLossS)
+      throw InputError(
+          name, fmt::format("{}: no usable odometry for {:.1f} s in flight ({:.1f} s after the "
+                            "start; {} received, {} rejected{}): the vehicle stopped reporting",
+                            topic_of<msg::VehicleOdometry>(link), now - last_state_s, now,
+                            report.odometry_received, report.odometry_rejected,
+                            report.last_rejection.empty() ? ""
+                                                          : "; last: " + report.last_rejection));
     out.clear();
     pilot.tick(now, out);
     if (pilot.done()) break;

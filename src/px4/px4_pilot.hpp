@@ -37,7 +37,8 @@ struct Px4PilotReport {
 /// Flies `pilot` through vehicle 0 of `link` (a kCompanion side) until the pilot is done or
 /// `stop` is set. `name` labels the vehicle in errors ("uav1 (UAV 0)"). Throws InputError naming
 /// it, the topic and what was waited for when the vehicle is not flying offboard within
-/// start_timeout_s.
+/// start_timeout_s, or when in flight no usable odometry arrives for 1 s (PX4's own offboard
+/// loss timeout, COM_OF_LOSS_T, the other way round).
 Px4PilotReport fly_px4_pilot(mavlink::OffboardPilot& pilot, transport_dds::Px4Link& link,
                              const std::string& name, double control_period_s,
                              double start_timeout_s, const std::atomic<bool>& stop);

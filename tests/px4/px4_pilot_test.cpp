@@ -163,6 +163,27 @@ TEST(Px4Pilot, AVehicleOnAnotherNamespaceIsOneErrorNamingTheUavTheTopicAndWhatWa
   EXPECT_EQ(stray.stats.setpoints + stray.stats.offboard_control_modes, 0u);
 }
 
+TEST(Px4Pilot, AVehicleThatStopsReportingInFlightEndsTheFlightWithOneErrorNamingTheTopic) {
+  ServedVehicle v("uav_1");
+  auto companion = link(transport_dds::Px4Side::kCompanion, "uav_1");
+  mavlink::OffboardPilot p = pilot(30.0);
+  std::thread silence([&] {
+    // The vehicle goes quiet 3 s in (its start takes well under a second).
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    v.stop = true;
+  });
+  const std::string error = fly_error(p, companion, 20.0);
+  silence.join();
+  v.finish();
+  EXPECT_NE(error.find("uav1 (UAV 0): rt/uav_1/fmu/out/vehicle_odometry: no usable odometry for "),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("s in flight"), std::string::npos) << error;
+  EXPECT_NE(error.find("the vehicle stopped reporting"), std::string::npos) << error;
+  ASSERT_FALSE(p.log().empty());  // it was flying
+  EXPECT_LT(p.log().back().t_s, 10.0);
+}
+
 // A setpoint with NaN velocity is rejected and counted by the real-time vehicle, never flown:
 // with only such setpoints streaming, the vehicle arms but refuses offboard (no setpoint it can
 // fly), though offboard_control_mode arrives.
