@@ -41,6 +41,7 @@ void register_fly_command(CLI::App& app) {
     std::optional<double> duration_s;
     std::string out;
     double start_timeout_s = 10.0;
+    int target_system = 1;
     bool px4_dds = false;
     std::optional<std::string> px4_namespace;
     int domain_id = 0;
@@ -69,6 +70,10 @@ void register_fly_command(CLI::App& app) {
   cmd->add_option("--scenario", args->scenario, "Scenario YAML file (default: embedded default)");
   cmd->add_option("--duration", args->duration_s, "Seconds of flight (default: the whole reference)");
   cmd->add_option("--out", args->out, "Write the flight's summary as JSON to this file");
+  cmd->add_option("--target-system", args->target_system,
+                  "The vehicle's MAVLink system id, which its commands target (PX4: MAV_SYS_ID; "
+                  "SITL instance N has N + 1)")
+      ->capture_default_str();
   cmd->add_option("--start-timeout", args->start_timeout_s,
                   "Seconds to wait for the vehicle to be armed and in offboard")
       ->capture_default_str();
@@ -78,6 +83,9 @@ void register_fly_command(CLI::App& app) {
       if (auto reason = transport_dds::check_px4_namespace(*args->px4_namespace))
         throw InputError("--px4-namespace", *reason);
     }
+    if (args->target_system < 1 || args->target_system > 255)
+      throw InputError("--target-system",
+                       fmt::format("{} is not a MAVLink system id (1..255)", args->target_system));
     if (!(args->start_timeout_s > 0.0))
       throw InputError("--start-timeout",
                        fmt::format("{} s is not a positive number of seconds", args->start_timeout_s));
@@ -104,6 +112,7 @@ void register_fly_command(CLI::App& app) {
     o.tracker = mission::make_tracker_options(sc, uav);
     o.flight_duration_s = args->duration_s.value_or(reference->end_time_s());
     o.home_altitude_m = home_altitude_m(sc);
+    o.target_system = static_cast<std::uint8_t>(args->target_system);
     mavlink::OffboardPilot pilot(o, sc.safety, reference, loaded.terrain);
     const std::atomic<bool> never{false};
     // What went over the wire, for the summary line and the JSON (the wire's own counters).

@@ -153,6 +153,28 @@ TEST(FlyPx4Dds, AVehicleOnAnotherNamespaceIsNotFlownAndTheErrorNamesTheTopicAwai
       << vehicle_log;
 }
 
+// PX4 obeys a vehicle_command only when it targets its own system id (MAV_SYS_ID): commands
+// for another system are ignored, and the error says what the vehicle never did.
+TEST(FlyPx4Dds, CommandsForAnotherSystemAreIgnoredAndTheErrorSaysTheVehicleNeverArmed) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const std::string dds = dds_args("system");
+  const pid_t vehicle =
+      spawn_cli("vehicle-sim --px4-dds --uav 0 --duration 120 " + dds, dir / "vehicle.log");
+  ASSERT_GT(vehicle, 0);
+  EXPECT_EQ(run_cli("fly --px4-dds --uav 0 --target-system 2 --start-timeout 4 " + dds,
+                    dir / "a.log"),
+            2);
+  EXPECT_TRUE(stop(vehicle));
+  const std::string log = slurp(dir / "a.log");
+  EXPECT_NE(log.find("error: uav1 (UAV 0): the PX4 vehicle did not start an offboard flight "
+                     "within 4 s (stuck arming); waited for rt/uav_1/fmu/out/vehicle_status: "
+                     "never armed ("),
+            std::string::npos)
+      << log;
+  const std::string vehicle_log = slurp(dir / "vehicle.log");
+  EXPECT_EQ(vehicle_log.find(" 0 vehicle_command"), std::string::npos) << vehicle_log;
+}
+
 TEST(FlyPx4Dds, BadOptionsAreOneErrorNamingTheOption) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   struct Case {
@@ -167,6 +189,8 @@ TEST(FlyPx4Dds, BadOptionsAreOneErrorNamingTheOption) {
       {"fly --uav 0 --px4-dds --start-timeout 0",
        "--start-timeout: 0 s is not a positive number of seconds"},
       {"fly --uav 7 --px4-dds", "--uav: 7 is not a UAV of the scenario (0..2)"},
+      {"fly --uav 0 --px4-dds --target-system 0",
+       "--target-system: 0 is not a MAVLink system id (1..255)"},
       {"vehicle-sim --px4-dds --peer 127.0.0.1:9",
        "--peer: is for MAVLink over UDP, not --px4-dds"},
   };
