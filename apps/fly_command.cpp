@@ -49,7 +49,9 @@ void register_fly_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
-      "fly", "Fly one UAV's planned reference through a MAVLink vehicle over UDP (offboard)");
+      "fly",
+      "Fly one UAV's planned reference offboard through a vehicle: MAVLink over UDP, or PX4's DDS "
+      "topics (--px4-dds)");
   cmd->add_option("--uav", args->uav, "Index of the scenario's UAV to fly (from 0)")->required();
   CLI::Option* udp =
       cmd->add_option("--udp", args->udp, "The vehicle's HOST:PORT, e.g. 127.0.0.1:14540");

@@ -59,7 +59,9 @@ void register_vehicle_sim_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
-      "vehicle-sim", "A MAVLink vehicle on 127.0.0.1 UDP for `ridgeline fly` (stand-in for PX4 SITL)");
+      "vehicle-sim",
+      "A vehicle for `ridgeline fly`/`run` (stand-in for PX4 SITL): MAVLink on 127.0.0.1 UDP, or "
+      "PX4's DDS topics (--px4-dds)");
   CLI::Option* udp =
       cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1; 0: any free port)");
   CLI::Option* px4_dds = cmd->add_flag(
