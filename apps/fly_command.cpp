@@ -32,6 +32,56 @@
 #include "transport_dds/px4_link.hpp"
 
 namespace ridgeline::apps {
+namespace {
+
+/// What went over the wire: for the summary line, and the JSON of the wire's own counters.
+struct WireReport {
+  std::string line;
+  nlohmann::json json;
+};
+
+WireReport fly_over_px4_dds(mavlink::OffboardPilot& pilot, const std::string& name,
+                            const std::string& ns, const transport_dds::DdsOptions& dds,
+                            double duration_s, double period_s, double start_timeout_s) {
+  transport_dds::Px4Link link(std::make_shared<transport_dds::DdsParticipant>(dds),
+                              transport_dds::Px4Side::kCompanion, {ns});
+  std::cerr << fmt::format(
+      "fly: {} over PX4's DDS topics rt/{}fmu/ (domain {}, partition '{}') for {:.1f} s\n", name,
+      ns.empty() ? "" : ns + "/", dds.domain_id, dds.partition, duration_s);
+  const std::atomic<bool> never{false};
+  const px4::Px4PilotReport r =
+      px4::fly_px4_pilot(pilot, link, name, period_s, start_timeout_s, never);
+  return {fmt::format("samples sent {}, odometry received {} ({} rejected), status received {}{}",
+                      r.samples_sent, r.odometry_received, r.odometry_rejected, r.status_received,
+                      r.last_rejection.empty() ? "" : "; last rejection: " + r.last_rejection),
+          {{"px4_dds",
+            {{"namespace", ns},
+             {"domain_id", dds.domain_id},
+             {"partition", dds.partition},
+             {"samples_sent", r.samples_sent},
+             {"odometry_received", r.odometry_received},
+             {"odometry_rejected", r.odometry_rejected},
+             {"status_received", r.status_received},
+             {"last_rejection", r.last_rejection}}}}};
+}
+
+WireReport fly_over_mavlink(mavlink::OffboardPilot& pilot, const std::string& name,
+                            const std::string& host, std::uint16_t port, double duration_s,
+                            double period_s, double start_timeout_s) {
+  mavlink::UdpLink link = mavlink::UdpLink::connect(host, port);
+  std::cerr << fmt::format("fly: {} over MAVLink to {}:{} for {:.1f} s\n", name, host, port,
+                           duration_s);
+  const std::atomic<bool> never{false};
+  const mavlink::SessionReport r =
+      mavlink::fly_pilot(pilot, link, period_s, start_timeout_s, never);
+  return {fmt::format("frames sent {}, received {} ({} rejected)", r.frames_sent,
+                      r.parser.accepted(), r.parser.rejected()),
+          {{"frames_sent", r.frames_sent},
+           {"frames_received", r.parser.accepted()},
+           {"frames_rejected", r.parser.rejected()}}};
+}
+
+}  // namespace
 
 void register_fly_command(CLI::App& app) {
   struct Args {
@@ -116,57 +166,25 @@ void register_fly_command(CLI::App& app) {
     o.home_altitude_m = home_altitude_m(sc);
     o.target_system = static_cast<std::uint8_t>(args->target_system);
     mavlink::OffboardPilot pilot(o, sc.safety, reference, loaded.terrain);
-    const std::atomic<bool> never{false};
-    // What went over the wire, for the summary line and the JSON (the wire's own counters).
-    std::string wire_line;
-    nlohmann::json wire;
-    if (args->px4_dds) {
-      const std::string ns = args->px4_namespace.value_or(fmt::format("uav_{}", args->uav + 1));
-      transport_dds::DdsOptions dds;
-      dds.domain_id = args->domain_id;
-      dds.partition = args->partition;
-      transport_dds::Px4Link link(std::make_shared<transport_dds::DdsParticipant>(dds),
-                                  transport_dds::Px4Side::kCompanion, {ns});
-      std::cerr << fmt::format(
-          "fly: {} ({}) over PX4's DDS topics rt/{}fmu/ (domain {}, partition '{}') for {:.1f} s\n",
-          uav.name, args->uav, ns.empty() ? "" : ns + "/", dds.domain_id, dds.partition,
-          o.flight_duration_s);
-      const px4::Px4PilotReport r =
-          px4::fly_px4_pilot(pilot, link, fmt::format("{} (UAV {})", uav.name, args->uav),
-                             o.tracker.control_period_s, args->start_timeout_s, never);
-      wire_line = fmt::format("samples sent {}, odometry received {} ({} rejected), status "
-                              "received {}{}",
-                              r.samples_sent, r.odometry_received, r.odometry_rejected,
-                              r.status_received,
-                              r.last_rejection.empty() ? "" : "; last rejection: " + r.last_rejection);
-      wire = {{"px4_dds",
-               {{"namespace", ns},
-                {"domain_id", dds.domain_id},
-                {"partition", dds.partition},
-                {"samples_sent", r.samples_sent},
-                {"odometry_received", r.odometry_received},
-                {"odometry_rejected", r.odometry_rejected},
-                {"status_received", r.status_received},
-                {"last_rejection", r.last_rejection}}}};
-    } else {
-      mavlink::UdpLink link = mavlink::UdpLink::connect(host, port);
-      std::cerr << fmt::format("fly: {} ({}) over MAVLink to {}:{} for {:.1f} s\n", uav.name,
-                               args->uav, host, port, o.flight_duration_s);
-      const mavlink::SessionReport r =
-          mavlink::fly_pilot(pilot, link, o.tracker.control_period_s, args->start_timeout_s, never);
-      wire_line = fmt::format("frames sent {}, received {} ({} rejected)", r.frames_sent,
-                              r.parser.accepted(), r.parser.rejected());
-      wire = {{"frames_sent", r.frames_sent},
-              {"frames_received", r.parser.accepted()},
-              {"frames_rejected", r.parser.rejected()}};
-    }
+    const std::string name = fmt::format("{} (UAV {})", uav.name, args->uav);
+    transport_dds::DdsOptions dds;
+    dds.domain_id = args->domain_id;
+    dds.partition = args->partition;
+    const WireReport wire =
+        args->px4_dds
+            ? fly_over_px4_dds(pilot, name,
+                               args->px4_namespace.value_or(fmt::format("uav_{}", args->uav + 1)),
+                               dds, o.flight_duration_s, o.tracker.control_period_s,
+                               args->start_timeout_s)
+            : fly_over_mavlink(pilot, name, host, port, o.flight_duration_s,
+                               o.tracker.control_period_s, args->start_timeout_s);
     const mavlink::FlightSummary s = pilot.summary();
     std::cout << fmt::format(
         "fly: {}; offboard after {:.2f} s; {} steps over {:.1f} s; tracking RMSE {:.2f} m, max "
         "{:.2f} m; {:.0f} m flown; {} stale states, {} QP fallbacks; {}\n",
         mavlink::to_string(s.phase), s.time_to_offboard_s, s.steps, s.flown_time_s,
         s.tracking_rmse_m, s.tracking_max_m, s.path_length_m, s.stale_steps, s.qp_fallbacks,
-        wire_line);
+        wire.line);
     if (!args->out.empty()) {
       nlohmann::json j = {{"uav", uav.name},
                           {"phase", std::string(mavlink::to_string(s.phase))},
@@ -179,7 +197,7 @@ void register_fly_command(CLI::App& app) {
                           {"path_length_m", s.path_length_m},
                           {"stale_steps", s.stale_steps},
                           {"qp_fallbacks", s.qp_fallbacks}};
-      j.update(wire);
+      j.update(wire.json);
       nlohmann::json samples = nlohmann::json::array();
       for (const mavlink::FlightSample& f : pilot.log())
         samples.push_back({f.t_s, f.position_m.x(), f.position_m.y(), f.position_m.z(),

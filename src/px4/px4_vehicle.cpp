@@ -98,8 +98,8 @@ Px4VehicleStats serve_px4_vehicle_lockstep(mavlink::SimulatedVehicle& vehicle,
 
 Px4VehicleStats serve_px4_vehicle(mavlink::SimulatedVehicle& vehicle, transport_dds::Px4Link& link,
                                   double duration_s, const std::atomic<bool>& stop) {
-  constexpr double kPeriodS = 0.02;        // odometry at 50 Hz
-  constexpr double kStatusPeriodS = 0.5;   // vehicle_status at 2 Hz, and on a change
+  constexpr double kPeriodS = 0.02;       // odometry at 50 Hz
+  constexpr double kStatusPeriodS = 0.5;  // vehicle_status at 2 Hz, and on a change
   const Clock::time_point start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   Px4VehicleStats stats;

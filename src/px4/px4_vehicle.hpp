@@ -38,7 +38,7 @@ struct Px4VehicleStats {
   std::uint64_t commands_refused = 0;  ///< offboard asked for without the offboard stream
   std::uint64_t replies = 0;           ///< lock step: answers; real time: odometry samples
   std::uint64_t status_sent = 0;       ///< vehicle_status samples
-  std::string last_rejection;  ///< "topic: reason"
+  std::string last_rejection;          ///< "topic: reason"
   double wall_time_s = 0.0;
 };
 

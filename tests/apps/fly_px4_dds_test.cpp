@@ -5,12 +5,11 @@
 // by trajectory_setpoint (velocity + yawspeed at 50 Hz); the vehicle (RK4, lags 20 % slower than
 // the tracker's model) must follow it. A vehicle that never reports, one on another namespace
 // and bad options are one error each (exit 2), nothing written.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <fcntl.h>
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -104,8 +103,7 @@ TEST(FlyPx4Dds, FliesUav0ThroughARealTimeVehicleOnPx4TopicsAndFollowsTheReferenc
   EXPECT_NE(vehicle_log.find("on PX4's DDS topics rt/uav_1/fmu/ (domain 215"), std::string::npos)
       << vehicle_log;
   EXPECT_NE(vehicle_log.find("in real time"), std::string::npos) << vehicle_log;
-  EXPECT_NE(vehicle_log.find("trajectory_setpoint (0 rejected)"), std::string::npos)
-      << vehicle_log;
+  EXPECT_NE(vehicle_log.find("trajectory_setpoint (0 rejected)"), std::string::npos) << vehicle_log;
   EXPECT_NE(vehicle_log.find("(0 refused, 0 refused by the vehicle)"), std::string::npos)
       << vehicle_log;
   EXPECT_NE(vehicle_log.find("; 0 lock-step steps"), std::string::npos) << vehicle_log;
@@ -132,9 +130,11 @@ TEST(FlyPx4Dds, AVehicleThatNeverReportsIsOneErrorNamingTheUavTheTopicAndWhatWas
 TEST(FlyPx4Dds, AVehicleOnAnotherNamespaceIsNotFlownAndTheErrorNamesTheTopicAwaited) {
   const fs::path dir = ridgeline::testing_support::fresh_test_dir();
   const std::string dds = dds_args("namespace");
-  const pid_t vehicle = spawn_cli("vehicle-sim --px4-dds --uav 1 --px4-namespace uav_2 "
-                                  "--duration 120 " + dds,
-                                  dir / "vehicle.log");
+  const pid_t vehicle = spawn_cli(
+      "vehicle-sim --px4-dds --uav 1 --px4-namespace uav_2 "
+      "--duration 120 " +
+          dds,
+      dir / "vehicle.log");
   ASSERT_GT(vehicle, 0);
   // UAV 1 (uav2) asked for on uav_3: its vehicle (on uav_2) is never flown.
   EXPECT_EQ(run_cli("fly --px4-dds --uav 1 --px4-namespace uav_3 --start-timeout 3 " + dds,
@@ -161,9 +161,9 @@ TEST(FlyPx4Dds, CommandsForAnotherSystemAreIgnoredAndTheErrorSaysTheVehicleNever
   const pid_t vehicle =
       spawn_cli("vehicle-sim --px4-dds --uav 0 --duration 120 " + dds, dir / "vehicle.log");
   ASSERT_GT(vehicle, 0);
-  EXPECT_EQ(run_cli("fly --px4-dds --uav 0 --target-system 2 --start-timeout 4 " + dds,
-                    dir / "a.log"),
-            2);
+  EXPECT_EQ(
+      run_cli("fly --px4-dds --uav 0 --target-system 2 --start-timeout 4 " + dds, dir / "a.log"),
+      2);
   EXPECT_TRUE(stop(vehicle));
   const std::string log = slurp(dir / "a.log");
   EXPECT_NE(log.find("error: uav1 (UAV 0): the PX4 vehicle did not start an offboard flight "

@@ -36,8 +36,7 @@ transport_dds::DdsOptions dds() {
 }
 
 transport_dds::Px4Link link(transport_dds::Px4Side side, const std::string& ns) {
-  return transport_dds::Px4Link(std::make_shared<transport_dds::DdsParticipant>(dds()), side,
-                                {ns});
+  return transport_dds::Px4Link(std::make_shared<transport_dds::DdsParticipant>(dds()), side, {ns});
 }
 
 /// A real-time simulated vehicle on `ns`, hovering at (0, 0, 100) heading east, served on a
@@ -70,9 +69,14 @@ struct ServedVehicle {
 
 std::shared_ptr<const mpc::ReferenceTrajectory> left_circle() {
   // Starts at the vehicle (0, 0, 100) heading east and turns left on a 150 m circle at 10 m/s.
-  return std::make_shared<mpc::HelixReference>(mpc::HelixReference::Config{
-      .centre_m = Vec3(0.0, 150.0, 100.0), .radius_m = 150.0, .speed_m_s = 10.0,
-      .climb_rate_m_s = 0.0, .phase0_rad = -0.5 * kPi, .turn_left = true, .t0_s = 0.0});
+  return std::make_shared<mpc::HelixReference>(
+      mpc::HelixReference::Config{.centre_m = Vec3(0.0, 150.0, 100.0),
+                                  .radius_m = 150.0,
+                                  .speed_m_s = 10.0,
+                                  .climb_rate_m_s = 0.0,
+                                  .phase0_rad = -0.5 * kPi,
+                                  .turn_left = true,
+                                  .t0_s = 0.0});
 }
 
 mavlink::OffboardPilot pilot(double duration_s) {
@@ -118,7 +122,7 @@ TEST(Px4Pilot, ArmsStartsOffboardAndTracksACircleThroughARealTimeVehicleOnPx4Top
   EXPECT_EQ(v.vehicle.stats().commands_refused, 0u) << v.vehicle.stats().last_error;
   EXPECT_GE(v.stats.offboard_control_modes, v.stats.setpoints);
   EXPECT_GT(v.stats.setpoints, 100u);
-  EXPECT_GE(v.stats.commands, 2u);  // arm, offboard
+  EXPECT_GE(v.stats.commands, 2u);                  // arm, offboard
   EXPECT_GT(v.vehicle.state()[vehicle::kX], 20.0);  // it flew east along the circle's start
 }
 
@@ -190,8 +194,8 @@ TEST(Px4Pilot, AVehicleThatStopsReportingInFlightEndsTheFlightWithOneErrorNaming
 TEST(Px4Vehicle, ARealTimeVehicleRejectsAndCountsSetpointsWithNaNAndNeverFliesThem) {
   ServedVehicle v("uav_1");
   auto companion = link(transport_dds::Px4Side::kCompanion, "uav_1");
-  mavlink::SetPositionTargetLocalNed sp = mavlink::velocity_setpoint(
-      vehicle::Input(10.0, 0.0, 0.0), 0.0, 0, 1, 1);
+  mavlink::SetPositionTargetLocalNed sp =
+      mavlink::velocity_setpoint(vehicle::Input(10.0, 0.0, 0.0), 0.0, 0, 1, 1);
   sp.vy = kNaN;
   bool armed = false;
   std::vector<transport_dds::Px4Received> got;
