@@ -15,11 +15,12 @@
 // --udp 0 takes any free port (printed); --cruise-start: it leaves the hover at the scenario's
 // start speed when offboard starts, as the mission's truth starts a UAV.
 //
-// --px4-dds (with --lockstep): the same vehicle on PX4's own DDS topics instead of MAVLink
-// (px4/px4_vehicle.hpp): it reads rt/<ns>/fmu/in/{offboard_control_mode, trajectory_setpoint,
-// vehicle_command} and answers on rt/<ns>/fmu/out/{vehicle_status, vehicle_odometry}, ns the
-// --px4-namespace (uav_N; "" for none), in DDS domain --domain-id and partition --partition, as
-// `ridgeline run --px4-dds` drives it.
+// --px4-dds: the same vehicle on PX4's own DDS topics instead of MAVLink (px4/px4_vehicle.hpp):
+// it reads rt/<ns>/fmu/in/{offboard_control_mode, trajectory_setpoint, vehicle_command} and
+// publishes rt/<ns>/fmu/out/{vehicle_status, vehicle_odometry}, ns the --px4-namespace (uav_N;
+// "" for none), in DDS domain --domain-id and partition --partition: in real time (odometry at
+// 50 Hz, status at 2 Hz and on a change) for `ridgeline fly --px4-dds`, or with --lockstep
+// answering each step as `ridgeline run --px4-dds` drives it.
 #include <csignal>
 #include <iostream>
 
@@ -58,12 +59,14 @@ void register_vehicle_sim_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
-      "vehicle-sim", "A MAVLink vehicle on 127.0.0.1 UDP for `ridgeline fly` (stand-in for PX4 SITL)");
+      "vehicle-sim",
+      "A vehicle for `ridgeline fly`/`run` (stand-in for PX4 SITL): MAVLink on 127.0.0.1 UDP, or "
+      "PX4's DDS topics (--px4-dds)");
   CLI::Option* udp =
       cmd->add_option("--udp", args->port, "UDP port to listen on (127.0.0.1; 0: any free port)");
   CLI::Option* px4_dds = cmd->add_flag(
       "--px4-dds", args->px4_dds,
-      "Serve PX4's uXRCE-DDS topics (px4_msgs, PX4 v1.14) instead of MAVLink (with --lockstep)");
+      "Serve PX4's uXRCE-DDS topics (px4_msgs, PX4 v1.14) instead of MAVLink");
   udp->excludes(px4_dds);
   cmd->add_option("--px4-namespace", args->px4_namespace,
                   "With --px4-dds: the vehicle's namespace (uav_N; \"\" for none)")
@@ -86,9 +89,8 @@ void register_vehicle_sim_command(CLI::App& app) {
   cmd->callback([args, udp] {
     if (!args->px4_dds && udp->count() == 0)
       throw InputError("--udp", "is required (or --px4-dds)");
-    if (args->px4_dds && !args->lockstep)
-      throw InputError("--px4-dds",
-                       "needs --lockstep (a real-time vehicle on PX4's topics is not implemented)");
+    if (args->px4_dds && !args->peer.empty())
+      throw InputError("--peer", "is for MAVLink over UDP, not --px4-dds");
     if (args->px4_dds) {
       if (auto reason = transport_dds::check_px4_namespace(args->px4_namespace))
         throw InputError("--px4-namespace", *reason);
@@ -135,21 +137,23 @@ void register_vehicle_sim_command(CLI::App& app) {
       transport_dds::Px4Link link(std::make_shared<transport_dds::DdsParticipant>(dds),
                                   transport_dds::Px4Side::kVehicle, {args->px4_namespace});
       std::cerr << fmt::format(
-          "vehicle-sim: {} ({}) on PX4's DDS topics rt/{}fmu/ (domain {}, partition '{}') in "
-          "lock step\n",
+          "vehicle-sim: {} ({}) on PX4's DDS topics rt/{}fmu/ (domain {}, partition '{}') {}\n",
           uav.name, args->uav, args->px4_namespace.empty() ? "" : args->px4_namespace + "/",
-          dds.domain_id, dds.partition);
-      const px4::Px4VehicleStats s = px4::serve_px4_vehicle_lockstep(
-          vehicle, link, sc.mpc.control_period_s, args->duration_s, g_stop);
+          dds.domain_id, dds.partition, args->lockstep ? "in lock step" : "in real time");
+      const px4::Px4VehicleStats s =
+          args->lockstep ? px4::serve_px4_vehicle_lockstep(vehicle, link, sc.mpc.control_period_s,
+                                                           args->duration_s, g_stop)
+                         : px4::serve_px4_vehicle(vehicle, link, args->duration_s, g_stop);
       const mavlink::SimulatedVehicleStats& v = vehicle.stats();
       std::cout << fmt::format(
           "vehicle-sim: {:.1f} s; received {} offboard_control_mode, {} trajectory_setpoint ({} "
-          "rejected), {} vehicle_command ({} refused, {} refused by the vehicle); {} lock-step "
-          "steps ({} resent, {} out of step); {} replies; final position ENU ({:.1f}, {:.1f}, "
-          "{:.1f}) m{}\n",
+          "rejected), {} vehicle_command ({} refused, {} refused by the vehicle); {} offboard "
+          "timeouts; {} lock-step steps ({} resent, {} out of step); {} odometry, {} status sent; "
+          "final position ENU ({:.1f}, {:.1f}, {:.1f}) m{}\n",
           s.wall_time_s, s.offboard_control_modes, s.setpoints, s.setpoints_rejected, s.commands,
-          s.commands_refused, v.commands_refused, v.lockstep_steps, v.lockstep_duplicates,
-          v.lockstep_out_of_step, s.replies, vehicle.state()[vehicle::kX],
+          s.commands_refused, v.commands_refused, v.offboard_timeouts, v.lockstep_steps,
+          v.lockstep_duplicates, v.lockstep_out_of_step, s.replies,
+          s.status_sent, vehicle.state()[vehicle::kX],
           vehicle.state()[vehicle::kY], vehicle.state()[vehicle::kZ],
           s.last_rejection.empty() ? "" : "; last rejection: " + s.last_rejection);
       return;

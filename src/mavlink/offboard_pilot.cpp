@@ -65,6 +65,12 @@ void OffboardPilot::handle(const Message& message, double t_s) {
 }
 
 void OffboardPilot::tick(double t_s, std::vector<EncodedFrame>& out) {
+  std::vector<Message> messages;
+  tick(t_s, messages);
+  for (const Message& m : messages) out.push_back(encode_message(m, next_header()));
+}
+
+void OffboardPilot::tick(double t_s, std::vector<Message>& out) {
   if (first_tick_s_ < 0.0) first_tick_s_ = t_s;
   if (done()) return;
   if (t_s >= next_heartbeat_s_) {
@@ -72,7 +78,7 @@ void OffboardPilot::tick(double t_s, std::vector<EncodedFrame>& out) {
     h.type = kMavTypeOnboardController;
     h.autopilot = kMavAutopilotInvalid;
     h.system_status = kMavStateActive;
-    out.push_back(encode_message(h, next_header()));
+    out.push_back(h);
     next_heartbeat_s_ = t_s + o_.heartbeat_period_s;
   }
   if (!have_position_ || !have_attitude_) return;
@@ -89,17 +95,15 @@ void OffboardPilot::tick(double t_s, std::vector<EncodedFrame>& out) {
     if (!have_heartbeat_ || !vehicle_armed_) {
       phase_ = PilotPhase::kArming;
       if (t_s >= next_command_s_) {
-        out.push_back(encode_message(command(kMavCmdComponentArmDisarm, 1.0f, 0.0f), next_header()));
+        out.push_back(command(kMavCmdComponentArmDisarm, 1.0f, 0.0f));
         next_command_s_ = t_s + o_.command_retry_s;
       }
     } else if (!vehicle_offboard_) {
       if (phase_ != PilotPhase::kStartingOffboard) next_command_s_ = t_s;  // armed: go on now
       phase_ = PilotPhase::kStartingOffboard;
       if (t_s >= next_command_s_) {
-        out.push_back(encode_message(
-            command(kMavCmdDoSetMode, static_cast<float>(kModeFlagCustomModeEnabled),
-                    static_cast<float>(kPx4MainModeOffboard)),
-            next_header()));
+        out.push_back(command(kMavCmdDoSetMode, static_cast<float>(kModeFlagCustomModeEnabled),
+                              static_cast<float>(kPx4MainModeOffboard)));
         next_command_s_ = t_s + o_.command_retry_s;
       }
     } else {
@@ -121,10 +125,8 @@ void OffboardPilot::tick(double t_s, std::vector<EncodedFrame>& out) {
     last_command_ = r.command;
     log_.push_back({t, state.head<3>(), reference_->at(t).position_m, r.command});
   }
-  out.push_back(encode_message(
-      velocity_setpoint(last_command_, state[vehicle::kPsi], ms, o_.target_system,
-                        o_.target_component),
-      next_header()));
+  out.push_back(velocity_setpoint(last_command_, state[vehicle::kPsi], ms, o_.target_system,
+                                  o_.target_component));
 }
 
 FlightSummary OffboardPilot::summary() const {

@@ -82,6 +82,8 @@ class OffboardPilot {
   void handle(const Message& message, double t_s);
   /// One control period at time t_s: appends the frames to send to `out`.
   void tick(double t_s, std::vector<EncodedFrame>& out);
+  /// The same as messages, for a wire other than MAVLink's (PX4's DDS topics, px4/px4_pilot.hpp).
+  void tick(double t_s, std::vector<Message>& out);
 
   PilotPhase phase() const { return phase_; }
   bool done() const {

@@ -164,17 +164,23 @@ void SimulatedVehicle::handle_command(const CommandLong& c, double t_s) {
 }
 
 void SimulatedVehicle::advance(double t_s, std::vector<EncodedFrame>& out) {
+  std::vector<Message> messages;
+  advance(t_s, messages);
+  for (const Message& m : messages) out.push_back(encode_message(m, next_header()));
+}
+
+void SimulatedVehicle::advance(double t_s, std::vector<Message>& out) {
   integrate_to(t_s);
   if (t_s >= next_heartbeat_s_) {
-    out.push_back(encode_message(heartbeat(), next_header()));
+    out.push_back(heartbeat());
     next_heartbeat_s_ += o_.heartbeat_period_s;
     if (next_heartbeat_s_ <= t_s) next_heartbeat_s_ = t_s + o_.heartbeat_period_s;
   }
   if (t_s >= next_report_s_) {
     const auto ms = static_cast<std::uint32_t>(std::llround(t_s * 1000.0));
     const StateReport r = report_state(state_, wind_at_vehicle(), ms, o_.home_altitude_m);
-    out.push_back(encode_message(r.position, next_header()));
-    out.push_back(encode_message(r.attitude, next_header()));
+    out.push_back(r.position);
+    out.push_back(r.attitude);
     next_report_s_ += o_.report_period_s;
     if (next_report_s_ <= t_s) next_report_s_ = t_s + o_.report_period_s;
   }

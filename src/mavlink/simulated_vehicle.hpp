@@ -90,6 +90,9 @@ class SimulatedVehicle {
   void handle(const Message& message, double t_s);
   /// Integrates to t_s and appends the reports due by then to `out`.
   void advance(double t_s, std::vector<EncodedFrame>& out);
+  /// The same as messages, for a vehicle served on another wire (PX4's DDS topics,
+  /// px4/px4_vehicle.hpp).
+  void advance(double t_s, std::vector<Message>& out);
 
   /// Setpoints stamped with this are stream keep-alives in lock step, never a step.
   static constexpr std::uint32_t kKeepAliveStamp = 0xFFFFFFFFu;

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace ridgeline::px4 {
 namespace {
@@ -102,27 +103,62 @@ msg::VehicleOdometry odometry(const mavlink::StateReport& r, std::uint64_t stamp
   return o;
 }
 
-ReportFromPx4 report_from_px4(const msg::VehicleOdometry& o, double home_altitude_m) {
+namespace {
+
+/// Why odometry cannot be flown on ("" when it can): a frame that is not NED, a value that is
+/// not finite, a quaternion that is not a rotation.
+std::string odometry_error(const msg::VehicleOdometry& o) {
   if (o.pose_frame != msg::VehicleOdometry::kPoseFrameNed)
-    return {std::nullopt, fmt::format("pose_frame {} is not NED (1)", o.pose_frame)};
+    return fmt::format("pose_frame {} is not NED (1)", o.pose_frame);
   if (o.velocity_frame != msg::VehicleOdometry::kVelocityFrameNed)
-    return {std::nullopt, fmt::format("velocity_frame {} is not NED (1)", o.velocity_frame)};
+    return fmt::format("velocity_frame {} is not NED (1)", o.velocity_frame);
   for (const std::string& error :
        {first_not_finite("position", o.position), first_not_finite("velocity", o.velocity),
         first_not_finite("q", o.q), first_not_finite("angular_velocity", o.angular_velocity)})
-    if (!error.empty()) return {std::nullopt, error};
+    if (!error.empty()) return error;
   const double w = o.q[0], x = o.q[1], y = o.q[2], z = o.q[3];
   const double norm = std::sqrt(w * w + x * x + y * y + z * z);
-  if (std::abs(norm - 1.0) > 1e-3)
-    return {std::nullopt, fmt::format("q has norm {:.6f}, not a rotation", norm)};
-  const double yaw = std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
-  const double pitch = std::asin(std::clamp(2.0 * (w * y - z * x), -1.0, 1.0));
+  if (std::abs(norm - 1.0) > 1e-3) return fmt::format("q has norm {:.6f}, not a rotation", norm);
+  return "";
+}
+
+/// Yaw (from north, clockwise) and pitch of q = Rz(yaw)·Ry(pitch)·Rx(roll).
+std::pair<double, double> yaw_pitch(const std::array<float, 4>& q) {
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  return {std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)),
+          std::asin(std::clamp(2.0 * (w * y - z * x), -1.0, 1.0))};
+}
+
+}  // namespace
+
+ReportFromPx4 report_from_px4(const msg::VehicleOdometry& o, double home_altitude_m) {
+  if (std::string error = odometry_error(o); !error.empty()) return {std::nullopt, error};
+  const auto [yaw, pitch] = yaw_pitch(o.q);
   mavlink::FleetReport r;
   r.position_m = mavlink::ned_position_to_enu(Vec3(o.position[0], o.position[1], o.position[2]),
                                               home_altitude_m);
   r.ground_velocity_m_s = mavlink::ned_to_enu(Vec3(o.velocity[0], o.velocity[1], o.velocity[2]));
   r.heading_rad = mavlink::ned_yaw_to_enu_heading(yaw);
   r.turn_rate_rad_s = -static_cast<double>(o.angular_velocity[2]) / std::cos(pitch);
+  return {r, ""};
+}
+
+StateFromPx4 state_report_from_px4(const msg::VehicleOdometry& o, std::uint32_t time_boot_ms) {
+  if (std::string error = odometry_error(o); !error.empty()) return {std::nullopt, error};
+  const auto [yaw, pitch] = yaw_pitch(o.q);
+  mavlink::StateReport r;
+  r.position.time_boot_ms = r.attitude.time_boot_ms = time_boot_ms;
+  r.position.x = o.position[0];
+  r.position.y = o.position[1];
+  r.position.z = o.position[2];
+  r.position.vx = o.velocity[0];
+  r.position.vy = o.velocity[1];
+  r.position.vz = o.velocity[2];
+  r.attitude.yaw = static_cast<float>(yaw);
+  r.attitude.pitch = static_cast<float>(pitch);
+  r.attitude.rollspeed = o.angular_velocity[0];
+  r.attitude.pitchspeed = o.angular_velocity[1];
+  r.attitude.yawspeed = static_cast<float>(o.angular_velocity[2] / std::cos(pitch));
   return {r, ""};
 }
 
@@ -145,6 +181,17 @@ bool status_armed(const msg::VehicleStatus& s) {
 }
 bool status_offboard(const msg::VehicleStatus& s) {
   return s.nav_state == msg::VehicleStatus::kNavStateOffboard;
+}
+
+mavlink::Heartbeat heartbeat_from_px4(const msg::VehicleStatus& s) {
+  mavlink::Heartbeat h;
+  h.type = s.system_type;
+  h.autopilot = mavlink::kMavAutopilotPx4;
+  h.base_mode = static_cast<std::uint8_t>(mavlink::kModeFlagCustomModeEnabled |
+                                          (status_armed(s) ? mavlink::kModeFlagSafetyArmed : 0));
+  h.custom_mode = status_offboard(s) ? mavlink::kPx4CustomModeOffboard : 0;
+  h.system_status = status_armed(s) ? mavlink::kMavStateActive : mavlink::kMavStateStandby;
+  return h;
 }
 
 namespace {
@@ -188,6 +235,20 @@ mavlink::CommandLong command_long(const msg::VehicleCommand& c) {
   l.target_component = c.target_component;
   l.confirmation = c.confirmation;
   return l;
+}
+
+msg::VehicleCommand vehicle_command(const mavlink::CommandLong& l, std::uint64_t stamp) {
+  msg::VehicleCommand c = command(l.command, l.target_system, stamp);
+  c.target_component = l.target_component;
+  c.param1 = l.param1;
+  c.param2 = l.param2;
+  c.param3 = l.param3;
+  c.param4 = l.param4;
+  c.param5 = l.param5;
+  c.param6 = l.param6;
+  c.param7 = l.param7;
+  c.confirmation = l.confirmation;
+  return c;
 }
 
 msg::OffboardControlMode offboard_control_mode(bool position, std::uint64_t stamp) {

@@ -58,16 +58,31 @@ struct ReportFromPx4 {
 };
 ReportFromPx4 report_from_px4(const msg::VehicleOdometry& odometry, double home_altitude_m);
 
+/// LOCAL_POSITION_NED + ATTITUDE from odometry (the inverse of odometry(): yaw and pitch from
+/// q, yaw speed = angular_velocity[2] / cos(pitch)), stamped time_boot_ms, or why it cannot be
+/// used (the same refusals as report_from_px4). For the real-time companion (px4_pilot.hpp),
+/// whose OffboardPilot reads the MAVLink path's messages.
+struct StateFromPx4 {
+  std::optional<mavlink::StateReport> report;
+  std::string error;
+};
+StateFromPx4 state_report_from_px4(const msg::VehicleOdometry& odometry,
+                                   std::uint32_t time_boot_ms);
+
 /// A vehicle's status: armed or standby, offboard or loiter.
 msg::VehicleStatus vehicle_status(bool armed, bool offboard, std::uint64_t stamp);
 bool status_armed(const msg::VehicleStatus& status);
 bool status_offboard(const msg::VehicleStatus& status);
+/// The HEARTBEAT that says the same (SAFETY_ARMED, PX4 main mode OFFBOARD).
+mavlink::Heartbeat heartbeat_from_px4(const msg::VehicleStatus& status);
 
 /// VEHICLE_CMD_COMPONENT_ARM_DISARM (arm) and VEHICLE_CMD_DO_SET_MODE (PX4 offboard).
 msg::VehicleCommand arm_command(std::uint8_t target_system, std::uint64_t stamp);
 msg::VehicleCommand offboard_command(std::uint8_t target_system, std::uint64_t stamp);
-/// The COMMAND_LONG with the same command and params.
+/// The COMMAND_LONG with the same command and params, and back (stamped `stamp`, from the
+/// onboard computer: source component 191, from_external).
 mavlink::CommandLong command_long(const msg::VehicleCommand& command);
+msg::VehicleCommand vehicle_command(const mavlink::CommandLong& command, std::uint64_t stamp);
 
 /// The offboard control mode of a velocity (or, for a hold, position) setpoint stream.
 msg::OffboardControlMode offboard_control_mode(bool position, std::uint64_t stamp);

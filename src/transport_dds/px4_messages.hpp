@@ -7,6 +7,15 @@
 // byte after it. The IDL module px4_msgs::msg::dds_ (px4_msgs.idl) is generated from these
 // lists as Ridgeline's own IDL is (idl_writer.hpp).
 //
+// Checked field by field (name, type, order) against PX4's published definitions: the v1.14
+// message documentation (docs.px4.io/v1.14/en/msg_docs/: VehicleOdometry whole, VehicleStatus up
+// to nav_state; OffboardControlMode and TrajectorySetpoint whole), PX4-Autopilot's
+// msg/VehicleStatus.msg at 0ebca4e (master after v1.14: the same fields; only the arming-state
+// constants were renamed, STANDBY = 1 → DISARMED = 1, ARMED = 2 unchanged; v1.15's
+// executor_in_charge, *_nav_states_mask and failsafe_defer_state not yet there) and px4_msgs'
+// msg/VehicleCommand.msg at 4b61dce (source_component uint8, as up to v1.14; uint16 from v1.15 on).
+// README "PX4's own DDS interface" lists what was checked how.
+//
 // Frames and units are PX4's: positions and velocities in its local NED frame (x north, y east,
 // z down, metres about the home position), angles in radians, yaw from north clockwise, body
 // rates in the FRD body frame, timestamps in microseconds since the vehicle's boot. NaN in a
@@ -30,11 +39,11 @@ struct OffboardControlMode {
   bool acceleration = false;
   bool attitude = false;
   bool body_rate = false;
-  bool thrust_and_torque = false;
-  bool direct_actuator = false;
+  /// v1.14's last field; later releases split it into thrust_and_torque and direct_actuator.
+  bool actuator = false;
 };
 RIDGELINE_WIRE_FIELDS(OffboardControlMode, "OffboardControlMode", timestamp, position, velocity,
-                      acceleration, attitude, body_rate, thrust_and_torque, direct_actuator)
+                      acceleration, attitude, body_rate, actuator)
 
 /// fmu/in/trajectory_setpoint: NED; NaN = not controlled.
 struct TrajectorySetpoint {

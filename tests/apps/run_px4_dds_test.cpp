@@ -120,7 +120,8 @@ TEST(RunPx4Dds, BadOptionsAndUnknownNamespacesGetOneErrorNamingTheOption) {
       {"run --px4-dds --px4-namespaces uav_1,uav_2,uav_1",
        "--px4-namespaces: 'uav_1' is given twice"},
       {"vehicle-sim --lockstep", "--udp: is required (or --px4-dds)"},
-      {"vehicle-sim --px4-dds", "--px4-dds: needs --lockstep"},
+      {"vehicle-sim --px4-dds --lockstep --peer 127.0.0.1:9",
+       "--peer: is for MAVLink over UDP, not --px4-dds"},
       {"vehicle-sim --px4-dds --lockstep --px4-namespace uav_x",
        "--px4-namespace: 'uav_x' is not a PX4 vehicle namespace"},
   };

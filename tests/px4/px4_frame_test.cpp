@@ -85,6 +85,28 @@ TEST(Px4Frame, OdometryGivesBackPositionVelocityHeadingAndTurnRate) {
   EXPECT_NEAR(back.report->turn_rate_rad_s, 0.08, 1e-6);
 }
 
+// The real-time companion reads odometry as the MAVLink path's LOCAL_POSITION_NED + ATTITUDE:
+// the model state comes back as from the MAVLink reports themselves, to float32 precision.
+TEST(Px4Frame, OdometryGivesBackTheMavlinkReportsTheCompanionReads) {
+  vehicle::State s = vehicle::State::Zero();
+  s << 250.0, 900.0, 140.0, -2.0, 12.0, -0.05, 1.5;  // x, y, z, ψ, v, ω, w
+  const double home_m = 30.0;
+  const mavlink::StateReport r = mavlink::report_state(s, Vec3::Zero(), 7000, home_m);
+  const px4::StateFromPx4 back = px4::state_report_from_px4(px4::odometry(r, 123), 4321);
+  ASSERT_TRUE(back.report) << back.error;
+  EXPECT_EQ(back.report->position.time_boot_ms, 4321u);
+  EXPECT_EQ(back.report->attitude.time_boot_ms, 4321u);
+  const vehicle::State direct = mavlink::state_from_report(r.position, r.attitude, home_m);
+  const vehicle::State via_px4 =
+      mavlink::state_from_report(back.report->position, back.report->attitude, home_m);
+  EXPECT_LT((direct - via_px4).cwiseAbs().maxCoeff(), 1e-5) << (direct - via_px4).transpose();
+  EXPECT_LT((via_px4 - s).cwiseAbs().maxCoeff(), 1e-4) << (via_px4 - s).transpose();
+  VehicleOdometry bad = px4::odometry(r, 0);
+  bad.angular_velocity[2] = kNaN;
+  EXPECT_EQ(px4::state_report_from_px4(bad, 0).error, "angular_velocity[2] is nan");
+  EXPECT_FALSE(px4::state_report_from_px4(bad, 0).report);
+}
+
 TEST(Px4Frame, OdometryWithNaNOrAnotherFrameIsRefusedNamingTheField) {
   const mavlink::StateReport r = mavlink::report_state(vehicle::State::Zero(), Vec3::Zero(), 0);
   VehicleOdometry o = px4::odometry(r, 0);
@@ -118,6 +140,22 @@ TEST(Px4Frame, CommandsAndStatusCarryPx4sNumbers) {
   EXPECT_EQ(status.nav_state, 14);
   EXPECT_TRUE(px4::status_armed(status) && px4::status_offboard(status));
   EXPECT_FALSE(px4::status_offboard(px4::vehicle_status(true, false, 0)));
+  // The status as the MAVLink pilot reads it, and the pilot's commands as PX4 reads them.
+  const mavlink::Heartbeat h = px4::heartbeat_from_px4(status);
+  EXPECT_EQ(h.base_mode, mavlink::kModeFlagSafetyArmed | mavlink::kModeFlagCustomModeEnabled);
+  EXPECT_EQ(h.custom_mode, mavlink::kPx4CustomModeOffboard);
+  const mavlink::Heartbeat standby = px4::heartbeat_from_px4(px4::vehicle_status(false, false, 0));
+  EXPECT_EQ(standby.base_mode & mavlink::kModeFlagSafetyArmed, 0);
+  EXPECT_EQ(standby.custom_mode, 0u);
+  const auto again = px4::vehicle_command(l, 555);
+  EXPECT_EQ(again.timestamp, 555u);
+  EXPECT_EQ(again.command, offboard.command);
+  EXPECT_EQ(again.param1, offboard.param1);
+  EXPECT_EQ(again.param2, offboard.param2);
+  EXPECT_EQ(again.target_system, offboard.target_system);
+  EXPECT_EQ(again.target_component, offboard.target_component);
+  EXPECT_EQ(again.source_component, 191);
+  EXPECT_TRUE(again.from_external);
 }
 
 }  // namespace
