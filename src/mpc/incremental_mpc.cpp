@@ -24,6 +24,19 @@ void require(bool ok, const std::string& field, const std::string& reason) {
 
 bool has_shape(const MatX& m, int rows, int cols) { return m.rows() == rows && m.cols() == cols; }
 
+// h[0..n) += c0·p0 + c1·p1 + c2·p2 + c3·p3: four rank-one terms on one row of a triangle.
+// __restrict (h never overlaps the p's) lets the compiler vectorize without overlap checks.
+void add_four_terms(double* __restrict h, int n, double c0, const double* __restrict p0,
+                    double c1, const double* __restrict p1, double c2,
+                    const double* __restrict p2, double c3, const double* __restrict p3) {
+  for (int b = 0; b < n; ++b) h[b] += c0 * p0[b] + c1 * p1[b] + c2 * p2[b] + c3 * p3[b];
+}
+
+// dst[0..n) += a·src[0..n) for rows of different matrices.
+void axpy(double* __restrict dst, int n, double a, const double* __restrict src) {
+  for (int i = 0; i < n; ++i) dst[i] += a * src[i];
+}
+
 }  // namespace
 
 void IncrementalMpcData::set_time_invariant(const MatX& A_, const MatX& B_, const MatX& C_,
@@ -377,11 +390,9 @@ void IncrementalMpc::build_prediction() {
       for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
         const Entry a = a_entries_[e];  // a copy: stores through dst cannot change it
         dsn_[a.row] += a.value * ds_[a.col];
-        double* dst = Gn->row(a.row).data();
-        const double* src = G->row(a.col).data();
-        for (int i = state_span_lo_[a.col], end = state_span_hi_[a.col]; i < end; ++i) {
-          dst[i] += a.value * src[i];
-        }
+        const int lo = state_span_lo_[a.col];
+        axpy(Gn->row(a.row).data() + lo, state_span_hi_[a.col] - lo, a.value,
+             G->row(a.col).data() + lo);
       }
     } else {
       for (int k = 0; k < ns_; ++k) {
@@ -419,11 +430,9 @@ void IncrementalMpc::build_prediction() {
       for (int e = 0; e < c_count_; ++e) {
         const Entry cz = c_entries_[e];
         y_[cz.row] += cz.value * ds_[cz.col];
-        double* dst = Phi_.row(j * ny_ + cz.row).data();
-        const double* src = G->row(cz.col).data();
-        for (int i = state_span_lo_[cz.col], end = state_span_hi_[cz.col]; i < end; ++i) {
-          dst[i] += cz.value * src[i];
-        }
+        const int lo = state_span_lo_[cz.col];
+        axpy(Phi_.row(j * ny_ + cz.row).data() + lo, state_span_hi_[cz.col] - lo, cz.value,
+             G->row(cz.col).data() + lo);
       }
     } else {
       for (int k = 0; k < ny_; ++k) {
@@ -487,8 +496,7 @@ void IncrementalMpc::build_cost() {
       for (int a = 0; a < size; ++a) {
         f[a] += e0 * p0[a] + e1 * p1[a] + e2 * p2[a] + e3 * p3[a];
         const double c0 = q0 * p0[a], c1 = q1 * p1[a], c2 = q2 * p2[a], c3 = q3 * p3[a];
-        double* h = Hp_.row(lo + a).data() + lo;
-        for (int b = 0; b <= a; ++b) h[b] += c0 * p0[b] + c1 * p1[b] + c2 * p2[b] + c3 * p3[b];
+        add_four_terms(Hp_.row(lo + a).data() + lo, a + 1, c0, p0, c1, p1, c2, p2, c3, p3);
       }
     }
     for (; n < end; ++n) {
@@ -575,33 +583,25 @@ void IncrementalMpc::assemble_soft_rows() {
     const int g_row = soft_rows_begin_ + r;
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
-      const int used = std::min(j + 1, nc_);
-      std::uint64_t reach = 0;
-      for (int k = 0; k < ny_; ++k) {
-        if (d.soft_normal(k, r) != 0.0) reach |= output_reach_[k];
-      }
-      for (int c = 0; c < nu_; ++c) {
-        if (((reach >> c) & 1U) != 0) std::fill_n(row + c * nc_, used, 0.0);
-      }
+      // Φ_j's entries outside a reach or right of the moves started by step j are exact
+      // zeros, so each output's span can be summed whole.
+      std::fill_n(row, nU, 0.0);
       double bound = d.soft_bound[r];
       for (int k = 0; k < ny_; ++k) {
         const double a = d.soft_normal(k, r);
         if (a == 0.0) continue;
-        const double* phi = Phi_.row(j * ny_ + k).data();
-        for (int c = 0; c < nu_; ++c) {
-          if (((output_reach_[k] >> c) & 1U) == 0) continue;
-          for (int i = 0; i < used; ++i) row[c * nc_ + i] += a * phi[c * nc_ + i];
-        }
+        const int lo = output_span_lo_[k];
+        axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
         bound -= a * Yfree_[j * ny_ + k];
       }
-      // G is column-major: clear the row, then store the reached entries (move, then input).
+      // G is column-major: each entry of the row is stored once, in the QP's order (move,
+      // then input), the slack columns last.
       double* g_out = &qp_.G(g_row, 0);
       const Eigen::Index stride = qp_.G.outerStride();
-      for (int q = 0; q < nz_; ++q) g_out[q * stride] = 0.0;
-      for (int c = 0; c < nu_; ++c) {
-        if (((reach >> c) & 1U) == 0) continue;
-        for (int i = 0; i < used; ++i) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+      for (int i = 0; i < nc_; ++i) {
+        for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
       }
+      for (int g = 0; g < ng_; ++g) g_out[(nU + g) * stride] = 0.0;
       g_out[(nU + d.soft_group[r]) * stride] = 1.0;
       qp_.lg[g_row] = bound;
     } else {
