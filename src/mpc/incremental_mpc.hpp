@@ -58,8 +58,8 @@
 //    patterns of B, A and C) bounds the columns a row of Γ or Φ can have: for the UAV, x and y
 //    are reached by the speed and turn commands, z by the climb command only. Row updates, the
 //    soft rows aᵀΦ_j and the cost sums skip the other inputs' columns.
-//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs per set of outputs with the
-//    same reach, over those inputs' columns only.
+//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs over each row's span (from
+//    its first to its last reached input's columns; see build_prediction), four rows at a time.
 //  - The input-limit rows, the slack terms and the QP's layout are written once at
 //    construction.
 // All matrices are preallocated at construction; after the
