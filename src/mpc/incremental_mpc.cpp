@@ -1,6 +1,7 @@
 #include "mpc/incremental_mpc.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -22,6 +23,19 @@ void require(bool ok, const std::string& field, const std::string& reason) {
 }
 
 bool has_shape(const MatX& m, int rows, int cols) { return m.rows() == rows && m.cols() == cols; }
+
+// h[0..n) += c0·p0 + c1·p1 + c2·p2 + c3·p3: four rank-one terms on one row of a triangle.
+// __restrict (h never overlaps the p's) lets the compiler vectorize without overlap checks.
+void add_four_terms(double* __restrict h, int n, double c0, const double* __restrict p0,
+                    double c1, const double* __restrict p1, double c2,
+                    const double* __restrict p2, double c3, const double* __restrict p3) {
+  for (int b = 0; b < n; ++b) h[b] += c0 * p0[b] + c1 * p1[b] + c2 * p2[b] + c3 * p3[b];
+}
+
+// dst[0..n) += a·src[0..n) for rows of different matrices.
+void axpy(double* __restrict dst, int n, double a, const double* __restrict src) {
+  for (int i = 0; i < n; ++i) dst[i] += a * src[i];
+}
 
 }  // namespace
 
@@ -147,14 +161,12 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   Gamma_ = RowMatX::Zero(ns_, nc_ * nu_);
   Gnext_ = RowMatX::Zero(ns_, nc_ * nu_);
   Yfree_ = VecX::Zero(np_ * ny_);
-  err_ = VecX::Zero(np_ * ny_);
   qdiag_ = VecX::Zero(np_ * ny_);
   for (int j = 0; j < np_; ++j) {
     const bool terminal = j == np_ - 1 && options.terminal_output_weight.size() == ny_;
     qdiag_.segment(j * ny_, ny_) =
         terminal ? options.terminal_output_weight : options.output_weight;
   }
-  qsqrt_ = qdiag_.cwiseSqrt();  // weights were validated ≥ 0
   ds_ = VecX::Zero(ns_);
   dsn_ = VecX::Zero(ns_);
   y_ = VecX::Zero(ny_);
@@ -162,13 +174,16 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   state_reach_.assign(ns_, 0);
   output_reach_.assign(ny_, 0);
   phi_reach_.assign(ny_, 0);
-  group_reach_.assign(ny_, 0);
-  group_columns_.assign(nc_ * nu_, 0);
-  group_w_ = MatX::Zero(nc_ * nu_, np_ * ny_);
-  group_e_ = VecX::Zero(np_ * ny_);
-  group_h_ = MatX::Zero(nc_ * nu_, nc_ * nu_);
-  group_f_ = VecX::Zero(nc_ * nu_);
-  Hp_ = MatX::Zero(nc_ * nu_, nc_ * nu_);
+  gamma_reach_.assign(ns_, 0);
+  state_span_lo_.assign(ns_, 0);
+  state_span_hi_.assign(ns_, 0);
+  output_span_lo_.assign(ny_, 0);
+  output_span_hi_.assign(ny_, 0);
+  group_lo_.assign(ny_, 0);
+  group_hi_.assign(ny_, 0);
+  group_begin_.assign(ny_ + 1, 0);
+  group_rows_.assign(np_ * ny_, 0);
+  Hp_ = RowMatX::Zero(nc_ * nu_, nc_ * nu_);
   fp_ = VecX::Zero(nc_ * nu_);
   soft_row_ = VecX::Zero(nc_ * nu_);
 
@@ -301,6 +316,35 @@ void IncrementalMpc::collect_plant_nonzeros() {
   for (int e = 0; e < c_count_; ++e) {
     output_reach_[c_entries_[e].row] |= state_reach_[c_entries_[e].col];
   }
+  const auto span = [this](std::uint64_t reach, int& lo, int& hi) {
+    lo = reach == 0 ? 0 : std::countr_zero(reach) * nc_;
+    hi = reach == 0 ? 0 : static_cast<int>(std::bit_width(reach)) * nc_;
+  };
+  for (int k = 0; k < ns_; ++k) span(state_reach_[k], state_span_lo_[k], state_span_hi_[k]);
+  for (int k = 0; k < ny_; ++k) span(output_reach_[k], output_span_lo_[k], output_span_hi_[k]);
+}
+
+void IncrementalMpc::group_rows_by_span() {
+  // Output components with the same span share build_cost's blocked rank updates.
+  groups_ = 0;
+  int n = 0;
+  for (int k = 0; k < ny_; ++k) {
+    const int lo = output_span_lo_[k], hi = output_span_hi_[k];
+    if (lo == hi) continue;  // an output no input moves: its rows of Φ are zero
+    bool seen = false;
+    for (int g = 0; g < groups_; ++g) seen = seen || (group_lo_[g] == lo && group_hi_[g] == hi);
+    if (seen) continue;
+    group_lo_[groups_] = lo;
+    group_hi_[groups_] = hi;
+    group_begin_[groups_] = n;
+    for (int j = 0; j < np_; ++j) {
+      for (int kk = k; kk < ny_; ++kk) {
+        if (output_span_lo_[kk] == lo && output_span_hi_[kk] == hi) group_rows_[n++] = j * ny_ + kk;
+      }
+    }
+    ++groups_;
+  }
+  group_begin_[groups_] = n;
 }
 
 void IncrementalMpc::build_prediction() {
@@ -312,10 +356,21 @@ void IncrementalMpc::build_prediction() {
   //   ds_j = A_j ds_{j−1} + w_j,                              y_j = y_{j−1} + C ds_j.
   // Γ and Φ are row-major with the columns ordered by input, then move (column c·Nc + i is
   // Δu_{k+i,c}): a row's part for one input is then contiguous, the moves started so far are
-  // its first entries, and a row update touches only the inputs in the row's reach.
+  // its first entries, and a row update touches only the inputs in the row's reach. From step
+  // Nc on every move has started and a row's reached inputs lie inside its span, a contiguous
+  // run of columns whose other entries are exact zeros: one loop over the span does the same
+  // arithmetic as one loop per input. That invariant holds because entries outside a reach
+  // are never written but with sums of such zeros, and Γ and Φ are cleared when a reach
+  // changes.
   if (output_reach_ != phi_reach_) {
-    Phi_.setZero();  // entries outside a reach are never written: clear those of an old one
+    Phi_.setZero();
     phi_reach_ = output_reach_;
+    group_rows_by_span();
+  }
+  if (state_reach_ != gamma_reach_) {
+    Gamma_.setZero();
+    Gnext_.setZero();
+    gamma_reach_ = state_reach_;
   }
   ds_ = d.delta_state;
   y_ = d.output;
@@ -327,24 +382,36 @@ void IncrementalMpc::build_prediction() {
     w_ = d.state_offset.col(j);
     if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
     dsn_ = w_;
-    for (int k = 0; k < ns_; ++k) {
-      for (int c = 0; c < nu_; ++c) {
-        if (((state_reach_[k] >> c) & 1U) == 0) continue;
-        std::fill_n(Gn->row(k).data() + c * nc_, active, 0.0);
+    if (j >= nc_) {
+      for (int k = 0; k < ns_; ++k) {
+        double* dst = Gn->row(k).data();
+        std::fill(dst + state_span_lo_[k], dst + state_span_hi_[k], 0.0);
       }
-    }
-    for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
-      const Entry a = a_entries_[e];  // a copy: stores through dst cannot change it
-      dsn_[a.row] += a.value * ds_[a.col];
-      const std::uint64_t reach = state_reach_[a.col];
-      for (int c = 0; c < nu_; ++c) {
-        if (((reach >> c) & 1U) == 0) continue;
-        double* dst = Gn->row(a.row).data() + c * nc_;
-        const double* src = G->row(a.col).data() + c * nc_;
-        for (int i = 0; i < active; ++i) dst[i] += a.value * src[i];
+      for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
+        const Entry a = a_entries_[e];  // a copy: stores through dst cannot change it
+        dsn_[a.row] += a.value * ds_[a.col];
+        const int lo = state_span_lo_[a.col];
+        axpy(Gn->row(a.row).data() + lo, state_span_hi_[a.col] - lo, a.value,
+             G->row(a.col).data() + lo);
       }
-    }
-    if (j < nc_) {
+    } else {
+      for (int k = 0; k < ns_; ++k) {
+        for (int c = 0; c < nu_; ++c) {
+          if (((state_reach_[k] >> c) & 1U) == 0) continue;
+          std::fill_n(Gn->row(k).data() + c * nc_, active, 0.0);
+        }
+      }
+      for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
+        const Entry a = a_entries_[e];
+        dsn_[a.row] += a.value * ds_[a.col];
+        const std::uint64_t reach = state_reach_[a.col];
+        for (int c = 0; c < nu_; ++c) {
+          if (((reach >> c) & 1U) == 0) continue;
+          double* dst = Gn->row(a.row).data() + c * nc_;
+          const double* src = G->row(a.col).data() + c * nc_;
+          for (int i = 0; i < active; ++i) dst[i] += a.value * src[i];
+        }
+      }
       const MatX& B = d.B[j];
       for (int k = 0; k < ns_; ++k) {
         for (int c = 0; c < nu_; ++c) {
@@ -354,26 +421,41 @@ void IncrementalMpc::build_prediction() {
     }
     std::swap(G, Gn);
     std::swap(ds_, dsn_);
-    for (int k = 0; k < ny_; ++k) {
-      double* row = Phi_.row(j * ny_ + k).data();
-      for (int c = 0; c < nu_; ++c) {
-        if (((output_reach_[k] >> c) & 1U) == 0) continue;
-        if (j > 0) {
-          std::copy_n(Phi_.row((j - 1) * ny_ + k).data() + c * nc_, used, row + c * nc_);
-        } else {
-          std::fill_n(row + c * nc_, used, 0.0);
+    if (j >= nc_) {
+      for (int k = 0; k < ny_; ++k) {
+        const int lo = output_span_lo_[k], hi = output_span_hi_[k];
+        std::copy(Phi_.row((j - 1) * ny_ + k).data() + lo, Phi_.row((j - 1) * ny_ + k).data() + hi,
+                  Phi_.row(j * ny_ + k).data() + lo);
+      }
+      for (int e = 0; e < c_count_; ++e) {
+        const Entry cz = c_entries_[e];
+        y_[cz.row] += cz.value * ds_[cz.col];
+        const int lo = state_span_lo_[cz.col];
+        axpy(Phi_.row(j * ny_ + cz.row).data() + lo, state_span_hi_[cz.col] - lo, cz.value,
+             G->row(cz.col).data() + lo);
+      }
+    } else {
+      for (int k = 0; k < ny_; ++k) {
+        double* row = Phi_.row(j * ny_ + k).data();
+        for (int c = 0; c < nu_; ++c) {
+          if (((output_reach_[k] >> c) & 1U) == 0) continue;
+          if (j > 0) {
+            std::copy_n(Phi_.row((j - 1) * ny_ + k).data() + c * nc_, used, row + c * nc_);
+          } else {
+            std::fill_n(row + c * nc_, used, 0.0);
+          }
         }
       }
-    }
-    for (int e = 0; e < c_count_; ++e) {
-      const Entry cz = c_entries_[e];
-      y_[cz.row] += cz.value * ds_[cz.col];
-      const std::uint64_t reach = state_reach_[cz.col];
-      for (int c = 0; c < nu_; ++c) {
-        if (((reach >> c) & 1U) == 0) continue;
-        double* dst = Phi_.row(j * ny_ + cz.row).data() + c * nc_;
-        const double* src = G->row(cz.col).data() + c * nc_;
-        for (int i = 0; i < used; ++i) dst[i] += cz.value * src[i];
+      for (int e = 0; e < c_count_; ++e) {
+        const Entry cz = c_entries_[e];
+        y_[cz.row] += cz.value * ds_[cz.col];
+        const std::uint64_t reach = state_reach_[cz.col];
+        for (int c = 0; c < nu_; ++c) {
+          if (((reach >> c) & 1U) == 0) continue;
+          double* dst = Phi_.row(j * ny_ + cz.row).data() + c * nc_;
+          const double* src = G->row(cz.col).data() + c * nc_;
+          for (int i = 0; i < used; ++i) dst[i] += cz.value * src[i];
+        }
       }
     }
     Yfree_.segment(j * ny_, ny_) = y_;
@@ -384,55 +466,50 @@ void IncrementalMpc::build_cost() {
   const IncrementalMpcData& d = data_;
   const int nU = nc_ * nu_;
   // Cost (eq. 10): H_uu = 2(ΦᵀQ̄Φ + R̄), f_u = −2ΦᵀQ̄(R − Y_free). Q̄ is diagonal, so
-  // ΦᵀQ̄Φ = Σ_r (√q_r φ_r)(√q_r φ_r)ᵀ over the rows r of Φ. Output components with the same
-  // reach form a group whose rows are nonzero only in the columns S of the inputs it
-  // reaches; its part is a rank update W Wᵀ of the packed |S|×rows matrix W, added into
-  // H(S, S). For the UAV that is 80 rows × 20 columns (x, y) and 40 × 10 (z) instead of
-  // 120 × 30: a third of the flops of the dense product. Sums run in Φ's column order and are
-  // moved to the QP's (move, then input) at the end.
+  // ΦᵀQ̄Φ = Σ_r q_r φ_r φ_rᵀ over the rows r of Φ, and a row is nonzero only inside its
+  // output's span: for the UAV the x and y rows in the 20 columns of the speed and turn
+  // moves, the z rows in the 10 of the climb moves (a third of the flops of the dense
+  // product). The rows of one span are summed four at a time, so each entry of the lower
+  // triangle is loaded and stored once per four rank-one terms. Sums run in Φ's column order
+  // and are moved to the QP's (move, then input) at the end.
   Hp_.setZero();
   fp_.setZero();
-  for (int j = 0; j < np_; ++j) {
-    for (int k = 0; k < ny_; ++k) {
-      const int r = j * ny_ + k;
-      err_[r] = qsqrt_[r] * (d.reference(k, j) - Yfree_[r]);
-    }
-  }
-  int groups = 0;
-  for (int k = 0; k < ny_; ++k) {
-    const std::uint64_t reach = output_reach_[k];
-    if (reach == 0) continue;  // an output no input moves: its rows of Φ are zero
-    if (std::find(group_reach_.begin(), group_reach_.begin() + groups, reach) !=
-        group_reach_.begin() + groups) {
-      continue;  // packed with the first component of the same reach
-    }
-    group_reach_[groups++] = reach;
-    int* cols = group_columns_.data();
-    int size = 0;
-    for (int c = 0; c < nu_; ++c) {
-      if (((reach >> c) & 1U) == 0) continue;
-      for (int i = 0; i < nc_; ++i) cols[size++] = c * nc_ + i;
-    }
-    int rows = 0;
-    for (int j = 0; j < np_; ++j) {
-      for (int kk = k; kk < ny_; ++kk) {
-        if (output_reach_[kk] != reach) continue;
-        const int r = j * ny_ + kk;
-        const double* phi = Phi_.row(r).data();
-        double* w = group_w_.col(rows).data();
-        for (int a = 0; a < size; ++a) w[a] = qsqrt_[r] * phi[cols[a]];
-        group_e_[rows++] = err_[r];
+  const Eigen::Index ld = Phi_.outerStride();
+  const double* phi = Phi_.data();
+  for (int g = 0; g < groups_; ++g) {
+    const int lo = group_lo_[g], size = group_hi_[g] - lo;
+    double* f = fp_.data() + lo;
+    int n = group_begin_[g];
+    const int end = group_begin_[g + 1];
+    for (; n + 4 <= end; n += 4) {
+      const int* r = &group_rows_[n];
+      const double* p0 = phi + r[0] * ld + lo;
+      const double* p1 = phi + r[1] * ld + lo;
+      const double* p2 = phi + r[2] * ld + lo;
+      const double* p3 = phi + r[3] * ld + lo;
+      const double q0 = qdiag_[r[0]], q1 = qdiag_[r[1]], q2 = qdiag_[r[2]], q3 = qdiag_[r[3]];
+      const auto err = [&](int row) {
+        return d.reference(row % ny_, row / ny_) - Yfree_[row];
+      };
+      const double e0 = -2.0 * q0 * err(r[0]), e1 = -2.0 * q1 * err(r[1]);
+      const double e2 = -2.0 * q2 * err(r[2]), e3 = -2.0 * q3 * err(r[3]);
+      for (int a = 0; a < size; ++a) {
+        f[a] += e0 * p0[a] + e1 * p1[a] + e2 * p2[a] + e3 * p3[a];
+        const double c0 = q0 * p0[a], c1 = q1 * p1[a], c2 = q2 * p2[a], c3 = q3 * p3[a];
+        add_four_terms(Hp_.row(lo + a).data() + lo, a + 1, c0, p0, c1, p1, c2, p2, c3, p3);
       }
     }
-    const auto W = group_w_.topLeftCorner(size, rows);
-    auto Hg = group_h_.topLeftCorner(size, size);
-    Hg.setZero();
-    Hg.selfadjointView<Eigen::Lower>().rankUpdate(W, 2.0);
-    auto fg = group_f_.head(size);
-    fg.noalias() = W * group_e_.head(rows);
-    for (int b = 0; b < size; ++b) {
-      fp_[cols[b]] -= 2.0 * fg[b];
-      for (int a = b; a < size; ++a) Hp_(cols[a], cols[b]) += Hg(a, b);  // cols ascend: lower
+    for (; n < end; ++n) {
+      const int r = group_rows_[n];
+      const double* p = phi + r * ld + lo;
+      const double q = qdiag_[r];
+      const double e = -2.0 * q * (d.reference(r % ny_, r / ny_) - Yfree_[r]);
+      for (int a = 0; a < size; ++a) {
+        f[a] += e * p[a];
+        const double c = q * p[a];
+        double* h = Hp_.row(lo + a).data() + lo;
+        for (int b = 0; b <= a; ++b) h[b] += c * p[b];
+      }
     }
   }
   auto Huu = qp_.H.topLeftCorner(nU, nU);
@@ -443,7 +520,7 @@ void IncrementalMpc::build_cost() {
       for (int ca = 0; ca < nu_; ++ca) {
         for (int ia = 0; ia < nc_; ++ia) {
           const int a = ca * nc_ + ia;
-          Huu(ia * nu_ + ca, qb) = a >= b ? Hp_(a, b) : Hp_(b, a);
+          Huu(ia * nu_ + ca, qb) = 2.0 * (a >= b ? Hp_(a, b) : Hp_(b, a));
         }
       }
     }
@@ -506,33 +583,25 @@ void IncrementalMpc::assemble_soft_rows() {
     const int g_row = soft_rows_begin_ + r;
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
-      const int used = std::min(j + 1, nc_);
-      std::uint64_t reach = 0;
-      for (int k = 0; k < ny_; ++k) {
-        if (d.soft_normal(k, r) != 0.0) reach |= output_reach_[k];
-      }
-      for (int c = 0; c < nu_; ++c) {
-        if (((reach >> c) & 1U) != 0) std::fill_n(row + c * nc_, used, 0.0);
-      }
+      // Φ_j's entries outside a reach or right of the moves started by step j are exact
+      // zeros, so each output's span can be summed whole.
+      std::fill_n(row, nU, 0.0);
       double bound = d.soft_bound[r];
       for (int k = 0; k < ny_; ++k) {
         const double a = d.soft_normal(k, r);
         if (a == 0.0) continue;
-        const double* phi = Phi_.row(j * ny_ + k).data();
-        for (int c = 0; c < nu_; ++c) {
-          if (((output_reach_[k] >> c) & 1U) == 0) continue;
-          for (int i = 0; i < used; ++i) row[c * nc_ + i] += a * phi[c * nc_ + i];
-        }
+        const int lo = output_span_lo_[k];
+        axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
         bound -= a * Yfree_[j * ny_ + k];
       }
-      // G is column-major: clear the row, then store the reached entries (move, then input).
+      // G is column-major: each entry of the row is stored once, in the QP's order (move,
+      // then input), the slack columns last.
       double* g_out = &qp_.G(g_row, 0);
       const Eigen::Index stride = qp_.G.outerStride();
-      for (int q = 0; q < nz_; ++q) g_out[q * stride] = 0.0;
-      for (int c = 0; c < nu_; ++c) {
-        if (((reach >> c) & 1U) == 0) continue;
-        for (int i = 0; i < used; ++i) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+      for (int i = 0; i < nc_; ++i) {
+        for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
       }
+      for (int g = 0; g < ng_; ++g) g_out[(nU + g) * stride] = 0.0;
       g_out[(nU + d.soft_group[r]) * stride] = 1.0;
       qp_.lg[g_row] = bound;
     } else {

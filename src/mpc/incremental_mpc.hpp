@@ -58,8 +58,8 @@
 //    patterns of B, A and C) bounds the columns a row of Γ or Φ can have: for the UAV, x and y
 //    are reached by the speed and turn commands, z by the climb command only. Row updates, the
 //    soft rows aᵀΦ_j and the cost sums skip the other inputs' columns.
-//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs per set of outputs with the
-//    same reach, over those inputs' columns only.
+//  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs over each row's span (from
+//    its first to its last reached input's columns; see build_prediction), four rows at a time.
 //  - The input-limit rows, the slack terms and the QP's layout are written once at
 //    construction.
 // All matrices are preallocated at construction; after the
@@ -205,6 +205,7 @@ class IncrementalMpc {
  private:
   std::string_view check_data() const;
   void collect_plant_nonzeros();
+  void group_rows_by_span();
   void build_cost();
   void assemble_qp();
   void assemble_soft_rows();
@@ -239,24 +240,26 @@ class IncrementalMpc {
   RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
   RowMatX Gamma_, Gnext_;  // n_s×(Nc·n_u): Γ_{j−1} and Γ_j; valid inside each row's reach
   VecX Yfree_;             // Np·n_y
-  VecX qdiag_, qsqrt_;     // Np·n_y: diagonal of Q̄ and its square root
-  VecX err_;               // Q̄^{1/2}(R − Y_free), stacked
+  VecX qdiag_;             // Np·n_y: diagonal of Q̄
   VecX ds_, dsn_, y_, w_;  // n_s, n_s, n_y, n_s
 
   // Reach (bit c: input c) of each state and output component (collect_plant_nonzeros), and
-  // the output reach Φ was last cleared for.
-  std::vector<std::uint64_t> state_reach_, output_reach_, phi_reach_;
-  // One group per distinct output reach (build_cost), handled one at a time: its input
-  // columns S and its rows packed as W = [√q_r φ_r(S)]_r (|S|×rows) and e = [√q_r err_r]_r.
-  std::vector<std::uint64_t> group_reach_;  // n_y: the reaches already handled
-  std::vector<int> group_columns_;          // Nc·n_u: S, ascending
-  MatX group_w_;                            // (Nc·n_u)×(Np·n_y): W
-  VecX group_e_;                            // Np·n_y: e
-  MatX group_h_;                            // (Nc·n_u)²: W Wᵀ
-  VecX group_f_;                            // Nc·n_u: W e
-  MatX Hp_;                                 // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower
-  VecX fp_;                                 // Nc·n_u: f_u in Φ's column order
-  VecX soft_row_;                           // Nc·n_u: one soft row's aᵀΦ_j
+  // the reaches Γ and Φ were last cleared for.
+  std::vector<std::uint64_t> state_reach_, output_reach_, phi_reach_, gamma_reach_;
+  // The span of a reach in Φ's and Γ's column order once every move has started (steps
+  // j ≥ Nc): the columns [lo, hi) from its first to its last input's block. Inputs inside the
+  // span but outside the reach hold exact zeros, so one contiguous loop over the span gives
+  // the same sums as the per-input loops.
+  std::vector<int> state_span_lo_, state_span_hi_;    // n_s
+  std::vector<int> output_span_lo_, output_span_hi_;  // n_y
+  // The rows of Φ grouped by span (build_cost sums each group's rank updates over its span):
+  // group g has the span [lo, hi) and the rows group_rows_[begin_g, begin_{g+1}).
+  std::vector<int> group_lo_, group_hi_, group_begin_;  // n_y, n_y, n_y + 1
+  std::vector<int> group_rows_;                         // Np·n_y
+  int groups_ = 0;
+  RowMatX Hp_;  // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower triangle (a ≥ b)
+  VecX fp_;     // Nc·n_u: f_u in Φ's column order
+  VecX soft_row_;  // Nc·n_u: one soft row's aᵀΦ_j
 };
 
 }  // namespace ridgeline::mpc

@@ -413,7 +413,7 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   build_nominal(t_s, state, reference);
   for (int j = 0; j < np_; ++j) {
     // B_j and E_j do not depend on the state (eq. 4): the constructor wrote them once.
-    d.A[j] = vehicle::discrete_jacobians(nominal_states_.col(j), p, dt).A;
+    d.A[j] = vehicle::discrete_state_jacobian(nominal_states_.col(j), p, dt);
     d.reference.col(j) = reference_points_[j + 1].position_m;
   }
   d.disturbance_delta.setZero();

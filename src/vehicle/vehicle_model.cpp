@@ -37,21 +37,26 @@ State rk4_step(const State& s, const Input& u, const Vec3& wind_m_s, const Vehic
   return s + (dt_s / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
 }
 
-Jacobians continuous_jacobians(const State& s, const VehicleParams& p) {
+StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p) {
   const double c = std::cos(s[kPsi]);
   const double sn = std::sin(s[kPsi]);
   const double v = s[kV];
+  StateMatrix A = StateMatrix::Zero();
+  A(kX, kPsi) = -v * sn;
+  A(kX, kV) = c;
+  A(kY, kPsi) = v * c;
+  A(kY, kV) = sn;
+  A(kZ, kW) = 1.0;
+  A(kPsi, kOmega) = 1.0;
+  A(kV, kV) = -1.0 / p.tau_v_s;
+  A(kOmega, kOmega) = -1.0 / p.tau_omega_s;
+  A(kW, kW) = -1.0 / p.tau_w_s;
+  return A;
+}
+
+Jacobians continuous_jacobians(const State& s, const VehicleParams& p) {
   Jacobians J;
-  J.A.setZero();
-  J.A(kX, kPsi) = -v * sn;
-  J.A(kX, kV) = c;
-  J.A(kY, kPsi) = v * c;
-  J.A(kY, kV) = sn;
-  J.A(kZ, kW) = 1.0;
-  J.A(kPsi, kOmega) = 1.0;
-  J.A(kV, kV) = -1.0 / p.tau_v_s;
-  J.A(kOmega, kOmega) = -1.0 / p.tau_omega_s;
-  J.A(kW, kW) = -1.0 / p.tau_w_s;
+  J.A = continuous_state_jacobian(s, p);
 
   J.B.setZero();
   J.B(kV, kSpeedCmd) = 1.0 / p.tau_v_s;
@@ -65,9 +70,13 @@ Jacobians continuous_jacobians(const State& s, const VehicleParams& p) {
   return J;
 }
 
+StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, double dt_s) {
+  return StateMatrix::Identity() + dt_s * continuous_state_jacobian(s, p);
+}
+
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s) {
   Jacobians J = continuous_jacobians(s, p);
-  J.A = StateMatrix::Identity() + dt_s * J.A;
+  J.A = discrete_state_jacobian(s, p, dt_s);
   J.B *= dt_s;
   J.E *= dt_s;
   return J;

@@ -68,9 +68,14 @@ struct Jacobians {
   WindMatrix E;
 };
 Jacobians continuous_jacobians(const State& s, const VehicleParams& p);
+/// A = ∂f/∂s alone (the only Jacobian that depends on the state; the MPC's step needs it
+/// along the whole horizon, B and E once).
+StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p);
 
 /// Jacobians of the Euler step: A_d = I + Δt·A, B_d = Δt·B, E_d = Δt·E.
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s);
+/// A_d = I + Δt·A alone.
+StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, double dt_s);
 
 /// Clamps a command into the maneuver limits at state s: the speed band, |ω_c| ≤ v/R_min
 /// (with v the current horizontal speed, floored at the minimum speed), and the climb
