@@ -1,6 +1,7 @@
 #include "swarm/agent.hpp"
 
 #include <algorithm>
+#include <numeric>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -254,6 +255,13 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
     };
     const bool stationary = velocity.norm() < kStationary;
     if (!(id < options_.id || stationary)) continue;  // the other one yields
+    // Out of reach over the look-ahead (the reference and the neighbour closing at full
+    // speed): no conflict, and no sampling, which is what made large teams slow.
+    const double closing_m_s = options_.tracker.vehicle.max_speed_m_s() +
+                               std::max(options_.tracker.vehicle.max_speed_m_s(), velocity.norm());
+    if ((neighbour_at(t_s) - reference_->at(t_s).position_m).norm() >
+        conflict_distance + closing_m_s * horizon)
+      continue;
     bool conflict = false;
     for (double tau = t_s; tau <= t_s + horizon && !conflict; tau += kCheckStep) {
       conflict = (neighbour_at(tau) - reference_->at(tau).position_m).norm() < conflict_distance;
@@ -330,12 +338,31 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
   if (replan_requested_ || t_s - last_replan_s_ >= options_.replan_period_s) replan(t_s, position);
 
   threat_buffer_ = known_threats();
+  // Only neighbours that can come within d_safe over the MPC horizon (both at full speed)
+  // enter it, nearest first: the tracker keeps the first max_neighbours, and in a large team
+  // the first by id are rarely the close ones.
+  const double horizon_s = options_.tracker.prediction_horizon * options_.tracker.prediction_step_s;
+  const double reach_m =
+      limits_.separation_m + 2.0 * options_.tracker.vehicle.max_speed_m_s() * horizon_s;
   neighbour_buffer_.clear();
+  neighbour_distances_.clear();
   bool stale = false;
   for (const auto& [id, n] : neighbours_) {
+    const double d = (messages::predicted_position(n.prediction, t_s) - position).norm();
+    if (!(d <= reach_m)) continue;
     neighbour_buffer_.push_back(n.prediction);
+    neighbour_distances_.push_back(d);
     stale = stale || t_s - n.prediction.stamp_s > options_.neighbour_stale_s;
   }
+  std::vector<std::size_t> nearest(neighbour_buffer_.size());
+  std::iota(nearest.begin(), nearest.end(), std::size_t{0});
+  std::sort(nearest.begin(), nearest.end(), [&](std::size_t a, std::size_t b) {
+    return neighbour_distances_[a] < neighbour_distances_[b];
+  });
+  std::vector<PredictedTrajectory> sorted;
+  sorted.reserve(nearest.size());
+  for (std::size_t k : nearest) sorted.push_back(std::move(neighbour_buffer_[k]));
+  neighbour_buffer_ = std::move(sorted);
   counters_.stale_neighbour_steps += stale ? 1 : 0;
   const mpc::TrackerEnvironment environment{threat_buffer_, neighbour_buffer_, terrain_.get()};
 

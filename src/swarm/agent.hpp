@@ -178,6 +178,7 @@ class Agent final : public UavAgent {
   std::map<int, KnownNeighbour> neighbours_;
   std::vector<world::Threat> threat_buffer_;
   std::vector<PredictedTrajectory> neighbour_buffer_;
+  std::vector<double> neighbour_distances_;  // of neighbour_buffer_'s entries, this step
   AgentMode mode_ = AgentMode::kTracking;
   int next_target_ = 0;
   std::vector<std::string> missed_;
