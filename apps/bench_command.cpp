@@ -37,12 +37,13 @@ void register_bench_command(CLI::App& app) {
 
   // `ridgeline bench plan [--scenario FILE] [--repeats N] [--scaling-repeats N] [--max-uavs N]
   // [--max-waypoints N] [--budget-s S]`: the global planner (plan_mission, all stages) on the
-  // default scenario, then a scaling table of 3, 10, 30 UAVs x 100, 200 waypoints
+  // default scenario, then a scaling table of team scenarios (`scenario team`) of 3, 10, 30, 100
+  // UAVs x 100, 200 waypoints
   // (sim/plan_benchmark.hpp). Large rows take long: --max-uavs / --max-waypoints drop them.
   struct PlanCommandOptions {
     std::string scenario;
     benchmarks::PlanBenchmarkOptions benchmark;
-    int max_uavs = 30;
+    int max_uavs = 100;
     int max_waypoints = 200;
   };
   auto plan_options = std::make_shared<PlanCommandOptions>();
@@ -70,9 +71,8 @@ void register_bench_command(CLI::App& app) {
     std::erase_if(o.uav_counts, [&](int n) { return n > plan_options->max_uavs; });
     std::erase_if(o.waypoint_counts, [&](int n) { return n > plan_options->max_waypoints; });
     const io::LoadedScenario loaded = load_scenario_argument(plan_options->scenario);
-    const benchmarks::PlanBenchmarkReport report = benchmarks::run_plan_benchmark(
-        mission::make_planning_problem(loaded.scenario, loaded.terrain),
-        mission::make_planner_options(loaded.scenario), o);
+    const benchmarks::PlanBenchmarkReport report =
+        benchmarks::run_plan_benchmark(loaded.scenario, loaded.terrain, o);
     std::cout << report.to_json().dump(2) << '\n';
   });
 

@@ -7,7 +7,8 @@
 
 #include "core/cpu_clock.hpp"
 #include "core/error.hpp"
-#include "planning/team_scenarios.hpp"
+#include "mission/stage_inputs.hpp"
+#include "mission/team_scenario.hpp"
 
 namespace ridgeline::benchmarks {
 namespace {
@@ -26,6 +27,7 @@ nlohmann::json PlanScalingRow::to_json() const {
                       {"ipopt_s", ipopt_s},
                       {"ipopt_iterations", ipopt_iterations},
                       {"solves", solves},
+                      {"decomposed", decomposed},
                       {"variables", variables},
                       {"constraints", constraints},
                       {"separation_rows", separation_rows},
@@ -102,6 +104,7 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
     row.ipopt_s = o.solve_time_s;
     row.ipopt_iterations = o.ipopt_iterations;
     row.solves = o.solves;
+    row.decomposed = o.decomposed;
     row.variables = o.variables;
     row.constraints = o.constraints;
     row.separation_rows = o.separation_rows;
@@ -120,8 +123,8 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
   return row;
 }
 
-PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& base,
-                                       const planning::GlobalPlannerOptions& base_options,
+PlanBenchmarkReport run_plan_benchmark(const mission::Scenario& base,
+                                       std::shared_ptr<const world::Terrain> terrain,
                                        const PlanBenchmarkOptions& options) {
   if (options.scaling_repeats < 0)
     throw InputError("scaling_repeats",
@@ -129,23 +132,22 @@ PlanBenchmarkReport run_plan_benchmark(const planning::GlobalPlanningProblem& ba
   if (!(options.scaling_time_budget_s > 0.0))
     throw InputError("scaling_time_budget_s", "must be > 0");
   PlanBenchmarkReport report;
-  report.base = measure_plan(base, base_options, options.repeats);
+  report.base = measure_plan(mission::make_planning_problem(base, terrain),
+                             mission::make_planner_options(base), options.repeats);
   if (options.scaling_repeats == 0) return report;
-  for (int uavs : options.uav_counts)
+  for (int uavs : options.uav_counts) {
+    const mission::Scenario team =
+        mission::make_team_scenario(base, *terrain, {uavs, uavs, options.team_seed});
+    const planning::GlobalPlanningProblem problem = mission::make_planning_problem(team, terrain);
     for (int waypoints : options.waypoint_counts) {
       if (waypoints < 2)
         throw InputError("waypoints", fmt::format("must be >= 2, got {}", waypoints));
-      if (uavs == report.base.uavs && waypoints == report.base.waypoints &&
-          base.targets.size() == base.uavs.size()) {
-        report.scaling.push_back(report.base);  // the base case is this row
-        continue;
-      }
-      const planning::GlobalPlanningProblem problem = planning::scaled_team(base, uavs);
-      planning::GlobalPlannerOptions o = base_options;
+      planning::GlobalPlannerOptions o = mission::make_planner_options(team);
       o.optimizer.waypoints_per_uav = waypoints;
       o.optimizer.time_budget_s = options.scaling_time_budget_s;
       report.scaling.push_back(measure_plan(problem, o, options.scaling_repeats));
     }
+  }
   return report;
 }
 

@@ -12,6 +12,8 @@
 #include "planning/time_parametrization.hpp"
 #include "planning/trajectory_ipopt.hpp"
 #include "planning/trajectory_nlp.hpp"
+#include "planning/priority_decomposition.hpp"
+#include "planning/trajectory_team_grid.hpp"
 
 namespace ridgeline::planning {
 namespace {
@@ -60,6 +62,10 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   if (o.max_refinements < 0) return bad("max_refinements", "must be >= 0");
   if (!(o.time_budget_s > 0.0)) return bad("time_budget_s", "must be > 0");
   if (o.lbfgs_history < 1) return bad("lbfgs_history", "must be >= 1");
+  if (o.joint_max_uavs < 1) return bad("joint_max_uavs", "must be >= 1");
+  if (o.threads < 1) return bad("threads", "must be >= 1");
+  if (!(o.coupling_distance_m > 0.0 && std::isfinite(o.coupling_distance_m)))
+    return bad("coupling_distance_m", "must be > 0");
   if (!(o.validation_terrain_step_m > 0.0 && o.validation_terrain_step_m <= 5.0))
     return bad("validation_terrain_step_m", "must be in (0, 5] m");
   if (!(o.validation_separation_period_s > 0.0)) return bad("validation_separation_period_s", "must be > 0");
@@ -192,6 +198,10 @@ GridUav make_grid(const TrajectoryUav& u, const Legs& legs, double dt, bool clim
 Vec3 held(const GridUav& u, int k) { return u.guess_m[std::min(k, u.segments())]; }
 bool held_fixed(const GridUav& u, int k) { return u.fixed[std::min(k, u.segments())] != 0; }
 
+}  // namespace
+
+namespace detail {
+
 std::vector<TimedPath> timed_paths(const std::vector<GridUav>& grid,
                                    const std::vector<std::vector<Vec3>>& waypoints, double dt) {
   std::vector<TimedPath> out(grid.size());
@@ -222,13 +232,6 @@ std::string check_problem(const TrajectoryProblem& problem,
   return {};
 }
 
-// The shared time grid: every UAV's route on steps of dt from its legs' cruise times.
-struct TeamGrid {
-  std::vector<GridUav> uavs;
-  double dt = 0.0;
-  int max_index = 0;  ///< the largest segment count over the team
-  std::string error;  ///< a route the grid cannot carry, or empty
-};
 
 TeamGrid make_team_grid(const TrajectoryProblem& problem,
                         const TrajectoryOptimizerOptions& options) {
@@ -331,7 +334,6 @@ std::string fixed_points_too_close(const TeamGrid& team, double separation_m) {
   return {};
 }
 
-using Candidates = std::map<std::tuple<int, int, int>, SeparationCandidate>;
 
 // Candidate pairs/steps (eq. 21 rows and J_col) from the guesses.
 Candidates initial_candidates(const TeamGrid& team, const TrajectoryOptimizerOptions& options) {
@@ -385,24 +387,12 @@ void refine_where_broken(const PlanValidationReport& validation, const TeamGrid&
   }
 }
 
-// A UAV whose solution the time parametrization cannot fly within its pitch or climb limit
-// (eq. 2), and by how much: the flown grade over the flyable one (> 1).
-struct GradeExcess {
-  int uav = 0;
-  double ratio = 1.0;
-  std::string description;
-};
 
 // The solution as stage 4 of the global planner will fly it (time_parametrize_timed): the UAVs
 // with a pitch or climb-rate violation, each with its largest excess, and the dense check of the
 // flown references themselves (their rounded corners and timing errors move them off the
 // waypoints' straight, linearly timed segments), each violation placed on the grid step of its
 // time, where refine_where_broken adds rows.
-struct FlownCheck {
-  std::vector<TimeParametrizationResult> timing;  // per UAV
-  std::vector<GradeExcess> steep;
-  PlanValidationReport validation;
-};
 
 FlownCheck check_flown(const TrajectoryProblem& problem, const std::vector<TimedPath>& paths,
                        const TrajectoryOptimizerOptions& options, const TeamGrid& team,
@@ -501,7 +491,22 @@ void add_candidates_the_solve_brought_near(const PlanValidationReport& validatio
       }
 }
 
-}  // namespace
+}  // namespace detail
+
+using detail::add_candidates_the_solve_brought_near;
+using detail::bound_grades;
+using detail::Candidates;
+using detail::check_flown;
+using detail::check_problem;
+using detail::deconflict_team;
+using detail::fixed_points_too_close;
+using detail::FlownCheck;
+using detail::GradeExcess;
+using detail::initial_candidates;
+using detail::make_team_grid;
+using detail::refine_where_broken;
+using detail::TeamGrid;
+using detail::timed_paths;
 
 std::string_view to_string(TrajectoryStatus status) {
   switch (status) {
@@ -542,9 +547,21 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   if (!team.error.empty()) return fail(TrajectoryStatus::kInvalidInput, team.error);
   const double dt = team.dt;
   result.time_step_s = dt;
-  if (n_uav > 1) result.guess = deconflict_team(problem, options, team);
+  const bool decompose =
+      options.decomposition == TeamDecomposition::kPriority ||
+      (options.decomposition == TeamDecomposition::kAuto && n_uav > options.joint_max_uavs);
+  if (n_uav > 1) {
+    // The decomposition always starts from deconflicted guesses: a UAV whose guess runs through
+    // a fixed earlier UAV at the same time starts its NLP deep inside an obstacle row (30 × 200
+    // on a generated team: a local infeasibility without, planned with).
+    TrajectoryOptimizerOptions guess_options = options;
+    guess_options.deconflict_guesses = options.deconflict_guesses || decompose;
+    result.guess = deconflict_team(problem, guess_options, team);
+  }
   if (std::string e = fixed_points_too_close(team, limits.separation_m); !e.empty())
     return fail(TrajectoryStatus::kInfeasible, e);
+  if (decompose)
+    return detail::optimize_in_priority_order(problem, options, team, std::move(result), t_start);
   Candidates candidates = initial_candidates(team, options);
 
   NlpSetup setup;

@@ -155,6 +155,11 @@ struct TrajectoryProblem {
 /// these systems; kMumps: Debian Ipopt's MUMPS, the reference.
 enum class KktFactorization { kSparseLdlt, kMumps };
 
+/// How a team is optimized (priority_decomposition.hpp): all UAVs in one NLP, or one UAV at a
+/// time in priority order against the fixed references of those before it; kAuto: joint up to
+/// joint_max_uavs UAVs.
+enum class TeamDecomposition { kAuto, kJoint, kPriority };
+
 struct TrajectoryOptimizerOptions {
   // Grid.
   int waypoints_per_uav = 100;  ///< N: segments of the longest UAV (≥ 2), when time_step_s ≤ 0
@@ -196,6 +201,13 @@ struct TrajectoryOptimizerOptions {
   double climb_current = 5.0;  ///< κ_climb ≥ 0: metres of cruise per metre climbed
   double turn_current = 0.5;   ///< κ_turn ≥ 0
   double speed_current = 1.0;  ///< κ_speed ≥ 0
+  // Team decomposition (priority_decomposition.hpp).
+  TeamDecomposition decomposition = TeamDecomposition::kAuto;
+  int joint_max_uavs = 6;  ///< kAuto: the joint NLP up to this many UAVs (≥ 1)
+  int threads = 2;         ///< ≥ 1: UAVs solved at once by the priority decomposition
+  /// > 0: the priority decomposition couples a UAV to the earlier ones whose guesses come this
+  /// close at equal grid times (their references are its obstacles).
+  double coupling_distance_m = 150.0;
   // Solver.
   double tolerance = 1e-5;             ///< Ipopt tol
   double constraint_tolerance = 1e-6;  ///< Ipopt constr_viol_tol (m or m²)
@@ -284,6 +296,12 @@ struct TrajectoryResult {
   /// The separation-aware guess (deconflict_guesses): separations before and after, lifts.
   GuessDeconflictionSummary guess;
 
+  /// True when the team was optimized one UAV at a time (priority_decomposition.hpp): then
+  /// J and the initial J have no J_col term, and solves counts every UAV's solves.
+  bool decomposed = false;
+  /// Decomposed: UAVs whose last solve stopped at Ipopt's iteration limit and whose iterate then
+  /// passed the dense check (validated, not proved optimal).
+  int feasible_stops = 0;
   int ipopt_iterations = 0;  ///< over all solves
   int solves = 0;            ///< 1 + refinement rounds used
   int variables = 0;         ///< of the last NLP (including fixed waypoints)

@@ -342,6 +342,13 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
     };
     const bool stationary = velocity.norm() < kStationary;
     if (!(id < options_.id || stationary)) continue;  // the other one yields
+    // Out of reach over the look-ahead (the reference and the neighbour closing at full
+    // speed): no conflict, and no sampling, which is what made large teams slow.
+    const double closing_m_s = options_.tracker.vehicle.max_speed_m_s() +
+                               std::max(options_.tracker.vehicle.max_speed_m_s(), velocity.norm());
+    if ((neighbour_at(t_s) - reference_->at(t_s).position_m).norm() >
+        conflict_distance + closing_m_s * horizon)
+      continue;
     bool conflict = false;
     for (double tau = t_s; tau <= t_s + horizon && !conflict; tau += kCheckStep) {
       const Vec3 gap = neighbour_at(tau) - reference_->at(tau).position_m;

@@ -5,6 +5,7 @@
 #include "support/temp_dir.hpp"
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -136,6 +137,34 @@ TEST_F(Cli, SynthesizedDemIsFittedAndIncludedByAScenario) {
   r = run("make-dem --cell 10 --out " + (dir_ / "x.png").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.err, HasSubstr("--out: must end in .tif"));
+}
+
+TEST_F(Cli, TeamScenarioIsValidAndBadCountsFailWithOneMessage) {
+  const fs::path file = dir_ / "team30.yaml";
+  CliRun r = run("scenario team --uavs 30 --targets 40 --seed 5 --out " + file.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const CliRun valid = run("validate " + file.string());
+  EXPECT_EQ(valid.exit_code, 0) << valid.err;
+  EXPECT_THAT(valid.out, HasSubstr("30 UAVs"));
+  EXPECT_THAT(valid.out, HasSubstr("40 targets"));
+  EXPECT_THAT(slurp(file), HasSubstr("--uavs 30 --targets 40 --seed 5"));
+  // Printed without --out: the same text.
+  EXPECT_EQ(run("scenario team --uavs 30 --targets 40 --seed 5").out, slurp(file));
+
+  const fs::path bad = dir_ / "bad.yaml";
+  for (const auto& [args, message] :
+       {std::pair{"--uavs 0 --targets 3", "--uavs: must be >= 1"},
+        {"--uavs nan --targets 3", "--uavs: must be an integer"},
+        {"--uavs 3 --targets nan", "--targets: must be an integer"},
+        {"--uavs 5000 --targets 3", "--uavs: 5000 UAVs do not fit on a take-off grid"},
+        {"--uavs 3 --targets 3 --seed -2", "--seed: must be >= 0"},
+        {"--uavs 3 --targets 3 --dem nowhere.tif", "--dem:"}}) {
+    r = run(std::string("scenario team ") + args + " --out " + bad.string());
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_THAT(r.err, HasSubstr(message)) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(bad)) << args;
+  }
 }
 
 }  // namespace

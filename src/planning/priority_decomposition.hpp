@@ -1,0 +1,48 @@
+// The joint optimizer's decomposition for large teams (issue 20; trajectory_optimizer.hpp holds
+// the NLP, eq. 14–24): one UAV at a time, in priority order, each against the fixed references
+// of the UAVs before it that it may meet, so the cost grows about linearly with the team instead
+// of with the joint KKT system's fill.
+//
+// Order. By route length on the shared grid (shortest first; ties by index), so a UAV that has
+// finished and holds at its last point is always fixed before the UAVs still flying around it:
+// their NLPs avoid it; it never has to avoid them.
+//
+// One UAV's NLP is the joint NLP of that UAV alone (its costs eq. 15–23, speed band, climb and
+// grade limits, band eq. 14, terrain rows eq. 19–20) plus constant obstacle rows
+// (trajectory_nlp.hpp, ObstacleRow) for eq. 21: at grid time t = (k + τ)·Δt its point keeps
+// d_safe + separation_margin_m (+ refinement) from each earlier UAV's flown reference at t, where
+// the current iterate comes within separation_prefilter_m of it (τ = 0 and
+// separation_samples_per_step interior times per step). The others' J_col is left out: the
+// decomposed J is Σ_i λ1·J_i.
+//
+// Coupling and threads. UAV i depends on the earlier UAVs whose guesses come within
+// coupling_m of its guess at some grid time; only those are its obstacles, so the result does
+// not depend on which other UAVs happen to be finished. options.threads workers take the first
+// UAV in order whose dependencies are done, so uncoupled UAVs are solved at the same time.
+//
+// Validation. Each UAV's solution is timed as it will be flown (time_parametrize_timed) and
+// checked densely like the joint one (terrain every ≤ 5 m, the band, its pitch and climb) and
+// its reference against its obstacles' references at every control period; a violation refines
+// that UAV's rows (more samples, a larger margin) and it is re-solved, warm-started, up to
+// max_refinements times. Then every pair of the whole team is checked (validate_plan); a pair
+// that breaks eq. 21 — two UAVs that were not coupled by their guesses but met — has its later
+// UAV re-solved against every other UAV, and the team is checked again. A team that still fails
+// is kValidationFailed with the violation; nothing that breaks a hard constraint is returned.
+#pragma once
+
+#include <chrono>
+
+#include "planning/trajectory_optimizer.hpp"
+#include "planning/trajectory_team_grid.hpp"
+
+namespace ridgeline::planning::detail {
+
+/// Optimizes `team` (its guesses already built, deconflicted and checked for fixed-point
+/// conflicts) one UAV at a time (file comment). `result` carries the grid step and the guess
+/// summary; the time budget runs from `start`.
+TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
+                                            const TrajectoryOptimizerOptions& options,
+                                            const TeamGrid& team, TrajectoryResult result,
+                                            std::chrono::steady_clock::time_point start);
+
+}  // namespace ridgeline::planning::detail
