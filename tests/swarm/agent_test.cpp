@@ -166,17 +166,20 @@ PredictedTrajectory broadcast(int uav, double t_s, const Vec3& start, const Vec3
   return p;
 }
 
-TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourWithADetour) {
+TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourByALevel) {
   // Head-on at 10 m/s each from 150 m apart: they would meet at t = 7.5 s near x = 75.
   const PredictedTrajectory head_on = broadcast(0, 0.0, Vec3(150, 0, 100), Vec3(-10, 0, 0));
   Agent yielding(options(1, 2), world::SafetyLimits{}, line_east(0.0), flat());
   yielding.receive(Envelope{0, 0.0, 0.0, head_on});
   yielding.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
-  EXPECT_EQ(yielding.counters().neighbour_conflicts, 1u);
-  ASSERT_TRUE(yielding.reference().has_detour());
-  // At the meeting time the detour keeps d_safe + r_safe + clearance sideways of the neighbour.
-  const Vec3 at_meeting = yielding.reference().at(7.5).position_m;
-  EXPECT_GE(std::hypot(at_meeting.x() - 75.0, at_meeting.y()), 10.0 + 10.0 + 15.0 - 1.0);
+  // The nearest free level (up first), reached before the meeting: a level apart, the
+  // crossing needs no horizontal detour.
+  EXPECT_EQ(yielding.counters().level_changes, 1u);
+  EXPECT_DOUBLE_EQ(yielding.reference().level_target_m(), 15.0);
+  EXPECT_FALSE(yielding.reference().has_detour());
+  EXPECT_GE(yielding.reference().at(7.5).position_m.z() - 100.0, 15.0 - 1e-9);
+  // Its prediction tells the others how far it has still to climb.
+  EXPECT_GT(yielding.prediction_message().level_shift_m, 0.0);
 
   // The lower id keeps its plan: the other one gives way.
   Agent keeping(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
@@ -184,8 +187,24 @@ TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourWithADetour) {
   from_one.uav = 1;
   keeping.receive(Envelope{1, 0.0, 0.0, from_one});
   keeping.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(keeping.counters().level_changes, 0u);
   EXPECT_EQ(keeping.counters().neighbour_conflicts, 0u);
   EXPECT_FALSE(keeping.reference().has_detour());
+}
+
+TEST(Agent, WithoutLevelsTheHigherIdYieldsWithADetour) {
+  const PredictedTrajectory head_on = broadcast(0, 0.0, Vec3(150, 0, 100), Vec3(-10, 0, 0));
+  AgentOptions o = options(1, 2);
+  o.max_levels = 0;
+  Agent yielding(o, world::SafetyLimits{}, line_east(0.0), flat());
+  yielding.receive(Envelope{0, 0.0, 0.0, head_on});
+  yielding.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(yielding.counters().level_changes, 0u);
+  EXPECT_EQ(yielding.counters().neighbour_conflicts, 1u);
+  ASSERT_TRUE(yielding.reference().has_detour());
+  // At the meeting time the detour keeps d_safe + r_safe + clearance sideways of the neighbour.
+  const Vec3 at_meeting = yielding.reference().at(7.5).position_m;
+  EXPECT_GE(std::hypot(at_meeting.x() - 75.0, at_meeting.y()), 10.0 + 10.0 + 15.0 - 1.0);
 }
 
 TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
