@@ -147,15 +147,8 @@ class UavSolver {
         if (start != nullptr) nlp.pack({current}, x0.data());
       } else {
         nlp.pack({current}, x0.data());
-        if (options_.warm_start_refinements &&
-            previous_bounds.z_lower.size() == static_cast<std::size_t>(nlp.num_variables())) {
-          warm.z_lower = previous_bounds.z_lower;
-          warm.z_upper = previous_bounds.z_upper;
-          warm.lambda.assign(nlp.num_constraints(), 0.0);
-          for (int r = 0; r < nlp.num_constraints(); ++r)
-            if (auto it = previous_lambda.find(nlp.row_key(r)); it != previous_lambda.end())
-              warm.lambda[r] = it->second;
-        }
+        if (options_.warm_start_refinements)
+          warm = detail::warm_start(nlp, previous_bounds, previous_lambda);
       }
       const double remaining_s = budget_s - seconds_since(t0);
       if (remaining_s <= 0.0)

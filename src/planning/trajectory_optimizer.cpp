@@ -446,6 +446,19 @@ FlownCheck check_flown(const TrajectoryProblem& problem, const std::vector<Timed
   return out;
 }
 
+Multipliers warm_start(const TrajectoryNlp& nlp, const Multipliers& previous_bounds,
+                       const std::map<TrajectoryNlp::RowKey, double>& previous_lambda) {
+  Multipliers warm;
+  if (previous_bounds.z_lower.size() != static_cast<std::size_t>(nlp.num_variables())) return warm;
+  warm.z_lower = previous_bounds.z_lower;
+  warm.z_upper = previous_bounds.z_upper;
+  warm.lambda.assign(nlp.num_constraints(), 0.0);
+  for (int r = 0; r < nlp.num_constraints(); ++r)
+    if (auto it = previous_lambda.find(nlp.row_key(r)); it != previous_lambda.end())
+      warm.lambda[r] = it->second;
+  return warm;
+}
+
 // A UAV whose grades cannot be flown gets the hard grade row on every segment (where one segment
 // is bounded, the solve would move the climb to its unbounded neighbours); if it had them, its G
 // shrinks by the excess, 1 % more: what its corners added (time_parametrization.hpp) was more
@@ -604,17 +617,8 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       result.initial_objective = nlp.objective(x0.data());
     } else {
       nlp.pack(previous, x0.data());
-      // A refinement keeps every row and adds some: the shared rows start from their last
-      // multipliers, the new ones from zero.
-      if (options.warm_start_refinements &&
-          previous_bounds.z_lower.size() == static_cast<std::size_t>(nlp.num_variables())) {
-        warm.z_lower = previous_bounds.z_lower;
-        warm.z_upper = previous_bounds.z_upper;
-        warm.lambda.assign(nlp.num_constraints(), 0.0);
-        for (int r = 0; r < nlp.num_constraints(); ++r)
-          if (auto it = previous_lambda.find(nlp.row_key(r)); it != previous_lambda.end())
-            warm.lambda[r] = it->second;
-      }
+      if (options.warm_start_refinements)
+        warm = detail::warm_start(nlp, previous_bounds, previous_lambda);
     }
     const double remaining_s = options.time_budget_s - seconds_since(t_start);
     if (remaining_s <= 0.0)

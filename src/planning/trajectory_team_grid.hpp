@@ -12,6 +12,7 @@
 #include "planning/guess_deconfliction.hpp"
 #include "planning/plan_validation.hpp"
 #include "planning/time_parametrization.hpp"
+#include "planning/trajectory_ipopt.hpp"
 #include "planning/trajectory_nlp.hpp"
 #include "planning/trajectory_optimizer.hpp"
 
@@ -68,5 +69,10 @@ void refine_where_broken(const PlanValidationReport& validation, const TeamGrid&
                          Candidates& candidates);
 /// Grade rows for UAVs whose grade the timing cannot fly (a tighter G if they had them).
 void bound_grades(const std::vector<GradeExcess>& excesses, NlpSetup& setup);
+/// A refinement's warm start: it keeps every row and adds some, so the shared rows start from
+/// their last multipliers (by row key) and the new ones from zero; the bound multipliers carry
+/// over when the variables are the same.
+Multipliers warm_start(const TrajectoryNlp& nlp, const Multipliers& previous_bounds,
+                       const std::map<TrajectoryNlp::RowKey, double>& previous_lambda);
 
 }  // namespace ridgeline::planning::detail
