@@ -34,6 +34,13 @@ struct Checker {
       return fmt::format("{} positions, expected 1..{}", m.positions_m.size(), max_points);
     for (const Vec3& p : m.positions_m)
       if (!p.allFinite()) return std::string("a position is not finite");
+    if (m.intent_m.size() > max_points)
+      return fmt::format("{} intent samples, expected at most {}", m.intent_m.size(), max_points);
+    if (!(std::isfinite(m.intent_start_s) && std::isfinite(m.intent_step_s) && m.intent_step_s > 0.0))
+      return fmt::format("intent start {} s or step {} s is invalid", m.intent_start_s,
+                         m.intent_step_s);
+    for (const Vec3& p : m.intent_m)
+      if (!p.allFinite()) return std::string("an intent sample is not finite");
     return std::nullopt;
   }
   std::optional<std::string> operator()(const ThreatReport& m) const {
@@ -106,6 +113,26 @@ Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s) {
   i = std::clamp(i, 0, n - 2);  // outside the samples: the nearest segment, extrapolated
   const double a = f - i;
   return p[i] + a * (p[i + 1] - p[i]);
+}
+
+Vec3 expected_position(const PredictedTrajectory& prediction, double t_s) {
+  const std::vector<Vec3>& p = prediction.positions_m;
+  const int n = static_cast<int>(p.size());
+  const double prediction_end_s = prediction.stamp_s + prediction.step_s * n;
+  if (n == 0) return Vec3::Zero();
+  if (t_s <= prediction_end_s) return predicted_position(prediction, t_s);
+  const std::vector<Vec3>& q = prediction.intent_m;
+  const int m = static_cast<int>(q.size());
+  if (m >= 2) {
+    const double f = (t_s - prediction.intent_start_s) / prediction.intent_step_s;
+    const int i = std::clamp(static_cast<int>(std::floor(f)), 0, m - 2);
+    return q[i] + (f - i) * (q[i + 1] - q[i]);
+  }
+  if (n < 2) return p.back();
+  // Mean horizontal velocity over the prediction: the last segment alone magnifies a turn's end.
+  Vec3 velocity = (p.back() - p.front()) / (prediction.step_s * (n - 1));
+  velocity.z() = 0.0;
+  return p.back() + velocity * (t_s - prediction_end_s);
 }
 
 }  // namespace ridgeline::messages

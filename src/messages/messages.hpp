@@ -23,16 +23,27 @@ struct PredictedTrajectory {
   double stamp_s = 0.0;
   double step_s = 0.1;  ///< > 0
   std::vector<Vec3> positions_m;
-  /// How far the sender's reference has still to move vertically toward its separation level
-  /// (swarm/agent.hpp): beyond the prediction its altitude goes that much further.
-  double level_shift_m = 0.0;
+  /// The sender's intent (swarm/agent.hpp, the separation protocol): where its reference
+  /// will be at intent_start_s + k·intent_step_s, k = 0.., beyond the MPC's short horizon —
+  /// its separation level and delay included. Empty when the sender publishes none.
+  double intent_start_s = 0.0;
+  double intent_step_s = 1.0;  ///< > 0
+  std::vector<Vec3> intent_m{};
+  /// Grows whenever the sender changes its reference (level, delay, detour): a receiver that
+  /// yields to it re-plans at once instead of at its next periodic re-plan.
+  int intent_revision = 0;
 };
 RIDGELINE_WIRE_FIELDS(PredictedTrajectory, "PredictedTrajectory", uav, stamp_s, step_s, positions_m,
-                      level_shift_m)
+                      intent_start_s, intent_step_s, intent_m, intent_revision)
 
 /// The predicted position at time t (needs ≥ 1 position): linear between the samples, the
 /// nearest segment extended outside them.
 Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s);
+
+/// Where the sender expects to be at t: its MPC prediction while t is inside it, then its
+/// intent (linear between samples), then the intent's last segment (or, without an intent,
+/// the prediction's mean horizontal velocity at its last altitude) extended.
+Vec3 expected_position(const PredictedTrajectory& prediction, double t_s);
 
 /// A sensed sudden threat (eq. 13): sphere of `radius_m` whose centre is `centre_m` at
 /// `stamp_s` and moves at `velocity_m_s`.

@@ -47,6 +47,7 @@ nlohmann::json to_json(const MissionMetrics& m) {
                     {"replan_failures", u.replan_failures},
                     {"rejoins", u.rejoins},
                     {"level_changes", u.level_changes},
+                    {"delay_changes", u.delay_changes},
                     {"fallback_steps", u.fallback_steps},
                     {"qp_failures", u.qp_failures},
                     {"stale_neighbour_steps", u.stale_neighbour_steps},

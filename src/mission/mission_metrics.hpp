@@ -42,6 +42,7 @@ struct UavMetrics {
   long long replan_failures = 0;
   long long rejoins = 0;
   long long level_changes = 0;  ///< separation levels the agent chose (swarm/agent.hpp)
+  long long delay_changes = 0;  ///< separation delays the agent chose (swarm/agent.hpp)
   long long fallback_steps = 0;
   long long qp_failures = 0;
   long long stale_neighbour_steps = 0;

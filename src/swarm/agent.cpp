@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include <fmt/format.h>
@@ -62,6 +63,22 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
         std::pair{options.age_margin_m_s, "age_margin_m_s"},
         std::pair{options.max_age_margin_m, "max_age_margin_m"}})
     require(value >= 0.0 && std::isfinite(value), field, "must be finite and >= 0");
+  require(options.max_levels >= 0, "max_levels", "must not be negative");
+  require(options.level_spacing_m > 1.0 && std::isfinite(options.level_spacing_m),
+          "level_spacing_m", "must be finite and > 1 m");
+  require(options.level_lookahead_s > 0.0 && options.level_lookahead_s <= 600.0,
+          "level_lookahead_s", "must be in (0, 600] s");
+  require(options.max_delay_s >= 0.0 && options.max_delay_s <= 600.0, "max_delay_s",
+          "must be in [0, 600] s");
+  require(options.delay_step_s > 0.0 && std::isfinite(options.delay_step_s), "delay_step_s",
+          "must be positive and finite");
+  require(options.delay_rate > 0.0 && options.delay_rate < 1.0, "delay_rate", "must be in (0, 1)");
+  require(options.delay_per_level_s > 0.0 && std::isfinite(options.delay_per_level_s),
+          "delay_per_level_s", "must be positive and finite");
+  require(options.intent_step_s > 0.0 && std::isfinite(options.intent_step_s), "intent_step_s",
+          "must be positive and finite");
+  require(options.min_replan_interval_s >= 0.0 && std::isfinite(options.min_replan_interval_s),
+          "min_replan_interval_s", "must be finite and >= 0");
   require(options.rejoin_distance_m > 0.0 && options.lost_reference_m > options.rejoin_distance_m,
           "lost_reference_m", "must exceed rejoin_distance_m > 0");
   require(options.position_filter_gain > 0.0 && options.position_filter_gain <= 1.0,
@@ -94,6 +111,18 @@ void Agent::receive(const Envelope& envelope) {
     auto it = neighbours_.find(p->uav);
     if (it != neighbours_.end() && it->second.prediction.stamp_s >= p->stamp_s)
       return;  // reordered
+    // A neighbour this UAV yields to has moved its intent: the slot may no longer be free. A
+    // re-plan that redraws the same path (a detour refreshed) changes nothing here.
+    if (p->uav < options_.id && it != neighbours_.end() &&
+        it->second.prediction.intent_revision != p->intent_revision) {
+      constexpr double kMoved = 2.0;  // m: well below a level or the conflict margin
+      const PredictedTrajectory& old = it->second.prediction;
+      for (std::size_t k = 0; k < p->intent_m.size() && !neighbour_replan_requested_; ++k) {
+        const double tau = p->intent_start_s + p->intent_step_s * static_cast<double>(k);
+        neighbour_replan_requested_ =
+            tau > old.stamp_s && (messages::expected_position(old, tau) - p->intent_m[k]).norm() > kMoved;
+      }
+    }
     neighbours_[p->uav].prediction = *p;
   } else if (const auto* r = std::get_if<ThreatReport>(&envelope.message)) {
     auto it = threats_.find(r->threat_id);
@@ -191,7 +220,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
     reference_->rejoin(t_s, position_m, 120.0, 30.0);
     ++counters_.rejoins;
   }
-  choose_level(t_s);
+  choose_slot(t_s, position_m);
   threat_buffer_ = known_threats();
   const int yielded = add_neighbour_conflicts(t_s, threat_buffer_);
   if (options_.optimizer_replan && t_s < reference_->plan_end_time_s() - 1.0) {
@@ -239,85 +268,140 @@ void Agent::replan(double t_s, const Vec3& position_m) {
   }
 }
 
-Vec3 Agent::extrapolate(const PredictedTrajectory& p, double t_s) {
-  const int count = static_cast<int>(p.positions_m.size());
-  if (count == 0) return Vec3::Zero();
-  const double end_s = p.stamp_s + p.step_s * count;
-  if (count < 2 || t_s <= end_s) return messages::predicted_position(p, t_s);
-  // Mean horizontal velocity over the prediction: the last segment alone magnifies a turn's
-  // end; the altitude is held (a climb toward a level stops there).
-  Vec3 velocity = (p.positions_m.back() - p.positions_m.front()) / (p.step_s * (count - 1));
-  velocity.z() = 0.0;
-  return p.positions_m.back() + velocity * (t_s - end_s);
-}
-
-void Agent::choose_level(double t_s) {
-  if (options_.max_levels <= 0) return;
-  constexpr double kStep = 0.5;  // s
+bool Agent::choose_slot(double t_s, const Vec3& position_m) {
+  last_slot_check_s_ = t_s;
+  if (options_.max_levels <= 0 && options_.max_delay_s <= 0.0) return false;
+  constexpr double kStep = 0.5;  // s; at 20 m/s closing speed, 10 m between checks
   const double spacing = options_.level_spacing_m;
   const double crossing = limits_.separation_m + options_.neighbour_conflict_margin_m;
   const int samples = static_cast<int>(options_.level_lookahead_s / kStep) + 1;
-  // Candidate offsets, nearest the current level first.
-  const double now = reference_->level_at(t_s);
-  candidates_.clear();
-  for (int k = -options_.max_levels; k <= options_.max_levels; ++k) candidates_.push_back(k * spacing);
-  std::stable_sort(candidates_.begin(), candidates_.end(), [&](double a, double b) {
-    const double da = std::abs(a - now), db = std::abs(b - now);
-    return da != db ? da < db : a > b;  // equal: up first (away from the terrain)
-  });
-  bool any_conflict = false;
-  blocked_.assign(candidates_.size(), false);
-  for (int i = 0; i < samples; ++i) {
-    const double tau = t_s + i * kStep;
-    const Vec3 r = reference_->at(tau).position_m;
-    const double base_z = r.z() - reference_->level_at(tau);
-    const double ground = terrain_->height(r.x(), r.y());
-    for (std::size_t c = 0; c < candidates_.size(); ++c) {
-      const double z = base_z + candidates_[c];
-      if (z < ground + limits_.terrain_clearance_m + options_.level_terrain_margin_m ||
-          z < limits_.altitude.min_m + options_.level_terrain_margin_m ||
-          z > limits_.altitude.max_m - options_.level_terrain_margin_m)
-        blocked_[c] = true;
-    }
-    for (const auto& [id, n] : neighbours_) {
-      if (!yields_to(id, n.prediction)) continue;
-      const PredictedTrajectory& p = n.prediction;
-      const Vec3 q = extrapolate(p, tau);
-      if ((q.head<2>() - r.head<2>()).norm() >= crossing) continue;
-      any_conflict = true;
-      // Beyond its prediction a neighbour climbing toward its own level may go on climbing:
-      // the band it may occupy runs from the held altitude along its climb, up to two levels.
-      // It occupies its altitude now and everything up to where its level change ends.
-      const double low = q.z() + std::min(0.0, p.level_shift_m);
-      const double high = q.z() + std::max(0.0, p.level_shift_m);
-      for (std::size_t c = 0; c < candidates_.size(); ++c) {
-        const double z = base_z + candidates_[c];
-        if (z > low - spacing && z < high + spacing) blocked_[c] = true;
-      }
-    }
+  const vehicle::VehicleParams& v = options_.tracker.vehicle;
+  // The climb bound at the slowest speed keeps the pitch limit whatever the speed does.
+  const double climb_rate =
+      0.9 * std::min(v.max_climb_rate_m_s, v.min_speed_m_s() * std::tan(v.max_pitch_rad));
+
+  // The neighbours this UAV yields to that can reach its reference's neighbourhood within the
+  // look-ahead, at the sample times.
+  const double reach = crossing + 2.0 * v.max_speed_m_s() * options_.level_lookahead_s;
+  yielded_positions_.clear();
+  int yielded = 0;
+  for (const auto& [id, n] : neighbours_) {
+    if (!yields_to(id, n.prediction)) continue;
+    if ((messages::expected_position(n.prediction, t_s) - position_m).norm() > reach) continue;
+    for (int i = 0; i < samples; ++i)
+      yielded_positions_.push_back(messages::expected_position(n.prediction, t_s + i * kStep));
+    ++yielded;
   }
-  double target = reference_->level_target_m();
-  if (!any_conflict) {
-    target = 0.0;  // back to the plan's altitude
-  } else {
-    // Keep the level being flown to while it stays free: a level that changes at every
-    // re-plan is one the others cannot plan around.
-    const auto current = std::find(candidates_.begin(), candidates_.end(), target);
-    if (current == candidates_.end() || blocked_[static_cast<std::size_t>(current - candidates_.begin())]) {
-      for (std::size_t c = 0; c < candidates_.size(); ++c) {
-        if (!blocked_[c]) {
-          target = candidates_[c];
-          break;
+
+  // Candidates: levels nearest the current target first (equal: up, away from the terrain);
+  // delays added to the current target delay, shortest first.
+  const double level_now = reference_->level_at(t_s);
+  const double level_target = reference_->level_target_m();
+  levels_.clear();
+  for (int k = -options_.max_levels; k <= options_.max_levels; ++k) levels_.push_back(k * spacing);
+  std::stable_sort(levels_.begin(), levels_.end(), [&](double a, double b) {
+    const double da = std::abs(a - level_target), db = std::abs(b - level_target);
+    return da != db ? da < db : a > b;
+  });
+  delays_.clear();
+  for (double d = 0.0; d <= options_.max_delay_s + 1e-9; d += options_.delay_step_s)
+    delays_.push_back(d);
+  const std::size_t nl = levels_.size(), nd = delays_.size();
+  conflict_time_.assign(nl * nd, std::numeric_limits<double>::infinity());
+  feasible_.assign(nl * nd, 1);
+  const double delay_now = reference_->delay_at(t_s);
+  const double delay_target = reference_->delay_target_s();
+  const double rate = delay_target > delay_now ? reference_->delay_rate() : options_.delay_rate;
+  bool any_conflict = false;
+  const auto level_of = [&](double level, double tau) {
+    const double moved = climb_rate * (tau - t_s), gap = level - level_now;
+    return std::abs(gap) <= moved ? level : level_now + std::copysign(moved, gap);
+  };
+
+  for (std::size_t d = 0; d < nd; ++d) {
+    const double target = delay_target + delays_[d];
+    for (int i = 0; i < samples; ++i) {
+      const double tau = t_s + i * kStep;
+      const double delay = std::min(target, delay_now + rate * (tau - t_s));
+      const Vec3 r = reference_->plan_point(tau - std::max(delay, delay_now)).position_m;
+      const double ground = terrain_->height(r.x(), r.y());
+      for (std::size_t c = 0; c < nl; ++c) {
+        const double z = r.z() + level_of(levels_[c], tau);
+        bool ok = z >= ground + limits_.terrain_clearance_m + options_.level_terrain_margin_m &&
+                  z >= limits_.altitude.min_m + options_.level_terrain_margin_m &&
+                  z <= limits_.altitude.max_m - options_.level_terrain_margin_m;
+        // A target is inspected inside its altitude band: a level must not lift the UAV out.
+        for (std::size_t k = static_cast<std::size_t>(next_target_); ok && k < options_.targets.size(); ++k) {
+          const AgentTarget& target_k = options_.targets[k];
+          if ((r.head<2>() - target_k.position_m.head<2>()).norm() <= target_k.radius_m)
+            ok = std::abs(z - target_k.position_m.z()) <= 0.5 * target_k.altitude_band_m;
+        }
+        if (!ok) feasible_[d * nl + c] = 0;
+      }
+      for (int k = 0; k < yielded; ++k) {
+        const Vec3& q = yielded_positions_[static_cast<std::size_t>(k * samples + i)];
+        if ((q.head<2>() - r.head<2>()).norm() >= crossing) continue;
+        if (d == 0) any_conflict = true;
+        for (std::size_t c = 0; c < nl; ++c) {
+          double& first = conflict_time_[d * nl + c];
+          if (tau < first && std::abs(r.z() + level_of(levels_[c], tau) - q.z()) < spacing - 1.0)
+            first = tau;
         }
       }
     }
   }
-  if (target == reference_->level_target_m()) return;
-  const vehicle::VehicleParams& v = options_.tracker.vehicle;
-  const double rate =
-      0.9 * std::min(v.max_climb_rate_m_s, v.min_speed_m_s() * std::tan(v.max_pitch_rad));
-  reference_->set_level(t_s, target, rate);
-  ++counters_.level_changes;
+
+  // The choice: with no crossing at the current delay, back to the plan's altitude. Otherwise
+  // keep the slot being flown to while it stays free (a slot that changes at every re-plan is
+  // one the others cannot plan around); else the cheapest free slot; else, when none is free
+  // (a conflict already too close for any slot), the one whose first conflict comes latest.
+  std::size_t best = nl * nd;
+  const auto cost = [&](std::size_t k) {
+    return std::abs(levels_[k % nl] - level_target) / spacing +
+           delays_[k / nl] / options_.delay_per_level_s;
+  };
+  const std::size_t keep = 0;  // levels_[0] is the target level, delays_[0] adds nothing
+  if (!any_conflict) {
+    const auto zero = std::find(levels_.begin(), levels_.end(), 0.0);
+    const std::size_t k = static_cast<std::size_t>(zero - levels_.begin());
+    best = feasible_[k] ? k : keep;
+  } else if (feasible_[keep] && std::isinf(conflict_time_[keep])) {
+    best = keep;
+  } else {
+    for (std::size_t k = 0; k < nl * nd; ++k) {
+      if (!feasible_[k]) continue;
+      if (best == nl * nd) {
+        best = k;
+        continue;
+      }
+      const double tk = conflict_time_[k], tb = conflict_time_[best];
+      if (tk > tb || (tk == tb && cost(k) < cost(best))) best = k;
+    }
+    if (best == nl * nd) best = keep;  // no feasible slot: nothing better than the current one
+  }
+  const double level = levels_[best % nl];
+  const double added_delay = delays_[best / nl];
+  if (level != level_target) {
+    reference_->set_level(t_s, level, climb_rate);
+    ++counters_.level_changes;
+  }
+  if (added_delay > 0.0) {
+    reference_->set_delay(t_s, delay_target + added_delay, rate);
+    ++counters_.delay_changes;
+  }
+  return level != level_target || added_delay > 0.0;
+}
+
+void Agent::update_intent(double t_s) {
+  if (reference_->revision() == intent_revision_ &&
+      t_s < intent_start_s_ + options_.intent_step_s)
+    return;
+  intent_revision_ = reference_->revision();
+  intent_start_s_ = t_s;
+  const int count = static_cast<int>(options_.level_lookahead_s / options_.intent_step_s) + 2;
+  intent_.resize(static_cast<std::size_t>(count));
+  for (int k = 0; k < count; ++k)
+    intent_[static_cast<std::size_t>(k)] = reference_->at(t_s + k * options_.intent_step_s).position_m;
 }
 
 int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const {
@@ -335,11 +419,7 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
     const Vec3 velocity = count >= 2 ? Vec3((nb.positions_m.back() - nb.positions_m.front()) /
                                             (nb.step_s * (count - 1)))
                                      : Vec3::Zero();
-    const double predicted_end = (nb.stamp_s + nb.step_s) + nb.step_s * std::max(count - 1, 0);
-    const auto neighbour_at = [&](double t) {
-      return t <= predicted_end ? messages::predicted_position(nb, t)
-                                : Vec3(nb.positions_m.back() + velocity * (t - predicted_end));
-    };
+    const auto neighbour_at = [&](double t) { return messages::expected_position(nb, t); };
     const bool stationary = velocity.norm() < kStationary;
     if (!(id < options_.id || stationary)) continue;  // the other one yields
     // Out of reach over the look-ahead (the reference and the neighbour closing at full
@@ -471,6 +551,11 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     return out;
   }
   forget_old_threats(t_s);
+  if (neighbour_replan_requested_ && t_s - last_slot_check_s_ >= options_.min_replan_interval_s) {
+    // Only a slot that has to change re-plans early: the detour is refreshed periodically.
+    neighbour_replan_requested_ = false;
+    if (choose_slot(t_s, position)) replan_requested_ = true;
+  }
   if (replan_requested_ || t_s - last_replan_s_ >= options_.replan_period_s) replan(t_s, position);
 
   threat_buffer_ = known_threats();
@@ -516,7 +601,11 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     p.positions_m.reserve(static_cast<std::size_t>(r.predicted_positions_m.cols()));
     for (Eigen::Index j = 0; j < r.predicted_positions_m.cols(); ++j)
       p.positions_m.emplace_back(r.predicted_positions_m.col(j));
-    p.level_shift_m = reference_->level_target_m() - reference_->level_at(t_s);
+    update_intent(t_s);
+    p.intent_start_s = intent_start_s_;
+    p.intent_step_s = options_.intent_step_s;
+    p.intent_m = intent_;
+    p.intent_revision = intent_revision_;
     prediction_ = std::move(p);
   }
   return out;

@@ -89,15 +89,28 @@ struct AgentOptions {
   /// UAV yields to keep d_safe + separation_margin_m + min(age_margin_m_s·age,
   /// max_age_margin_m), with `age` the age of that neighbour's newest prediction.
   double separation_margin_m = 4.0;
-  /// Levels: a UAV that yields to neighbours whose extrapolated paths cross its reference
-  /// horizontally (within d_safe + neighbour_conflict_margin_m) within level_lookahead_s
-  /// moves its whole reference up or down by a multiple of level_spacing_m (at most
-  /// max_levels each way, inside the altitude band and h_safe + level_terrain_margin_m above
-  /// the terrain) to the nearest level none of them occupies there.
+  /// Slots (README "Separation in dense teams"): a UAV that yields to neighbours whose
+  /// intents (or predictions) cross its reference horizontally (within d_safe +
+  /// neighbour_conflict_margin_m) within level_lookahead_s, less than a level apart, gives its
+  /// reference a slot none of them occupies there: a level (the whole reference moved up or
+  /// down by a multiple of level_spacing_m, at most max_levels each way, inside the altitude
+  /// band, h_safe + level_terrain_margin_m above the terrain and inside the altitude band of
+  /// every target it passes) and a delay (the plan flown later by up to max_delay_s more, in
+  /// steps of delay_step_s, the delay growing at delay_rate: the plan at (1 − rate) of its
+  /// speed meanwhile). A level step costs as much as delay_per_level_s of delay.
   double level_spacing_m = 15.0;
   double level_lookahead_s = 30.0;
   int max_levels = 4;
   double level_terrain_margin_m = 10.0;
+  double max_delay_s = 16.0;      ///< ≥ 0; 0 turns delays off
+  double delay_step_s = 2.0;      ///< > 0
+  double delay_rate = 0.4;        ///< in (0, 1): 10 m/s flown at 6 m/s, above v_min
+  double delay_per_level_s = 3.0;  ///< > 0
+  /// The intent broadcast with every prediction: the reference every intent_step_s over
+  /// level_lookahead_s (and one step more, so it still covers it when a step old).
+  double intent_step_s = 1.0;
+  /// A higher-priority neighbour's new intent re-plans at once, but not more often than this.
+  double min_replan_interval_s = 0.2;
   double age_margin_m_s = 5.0;
   double max_age_margin_m = 10.0;
   double rejoin_distance_m = 40.0;
@@ -179,11 +192,11 @@ class Agent final : public UavAgent {
   /// of `position_m` during [t, t + finish_threat_guard_s].
   bool hold_point_threatened(double t_s, const Vec3& position_m) const;
   void replan(double t_s, const Vec3& position_m);
-  /// The separation protocol's level (file comment, AgentOptions::level_spacing_m).
-  void choose_level(double t_s);
-  /// A neighbour's position at t from its newest prediction: the prediction inside it, then
-  /// horizontally at its mean velocity at the last predicted altitude.
-  static Vec3 extrapolate(const PredictedTrajectory& p, double t_s);
+  /// The separation protocol's slot: level and delay (AgentOptions::level_spacing_m).
+  /// Returns whether the slot changed.
+  bool choose_slot(double t_s, const Vec3& position_m);
+  /// The intent broadcast with the prediction (PredictedTrajectory::intent_m).
+  void update_intent(double t_s);
   /// Neighbours this UAV must yield to, as moving obstacles (appended to `obstacles`).
   int add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obstacles) const;
   /// The separation protocol's priority: this UAV yields to a neighbour with a lower id, and
@@ -206,8 +219,18 @@ class Agent final : public UavAgent {
   std::vector<PredictedTrajectory> neighbour_buffer_;  ///< the MPC's neighbours, nearest first
   std::vector<double> neighbour_separation_;          ///< the distance each one's rows keep
   std::vector<std::pair<double, int>> nearby_;        ///< (distance now, id) within reach
-  std::vector<double> candidates_;  ///< choose_level's offsets
-  std::vector<bool> blocked_;
+  // choose_slot's work space: candidate levels and added delays, the yielded-to neighbours'
+  // expected positions per sample, each candidate's earliest conflict time and feasibility.
+  std::vector<double> levels_;
+  std::vector<double> delays_;
+  std::vector<Vec3> yielded_positions_;
+  std::vector<double> conflict_time_;
+  std::vector<char> feasible_;
+  std::vector<Vec3> intent_;
+  double intent_start_s_ = -1e9;
+  int intent_revision_ = -1;
+  bool neighbour_replan_requested_ = false;
+  double last_slot_check_s_ = -1e9;
   AgentMode mode_ = AgentMode::kTracking;
   int next_target_ = 0;
   std::vector<std::string> missed_;

@@ -12,7 +12,32 @@ namespace ridgeline::swarm {
 AgentReference::AgentReference(std::shared_ptr<const mpc::SampledReference> plan)
     : plan_(std::move(plan)) {}
 
-mpc::ReferencePoint AgentReference::plan_at(double t_s) const { return plan_->at(t_s - delay_s_); }
+double AgentReference::delay_at(double t_s) const {
+  if (delay_target_s_ == delay_from_s_ || t_s <= delay_since_s_) return delay_from_s_;
+  return std::min(delay_target_s_, delay_from_s_ + delay_rate_ * (t_s - delay_since_s_));
+}
+
+mpc::ReferencePoint AgentReference::plan_at(double t_s) const {
+  const double delay = delay_at(t_s);
+  mpc::ReferencePoint p = plan_->at(t_s - delay);
+  if (delay < delay_target_s_ && t_s >= delay_since_s_) {
+    // d/dt r_plan(t − δ(t)) = (1 − δ̇)·ṙ_plan: the same path, flown slower.
+    const double along = 1.0 - delay_rate_;
+    p.speed_m_s *= along;
+    p.turn_rate_rad_s *= along;
+    p.climb_rate_m_s *= along;
+  }
+  return p;
+}
+
+void AgentReference::set_delay(double t_s, double target_s, double rate) {
+  const double now = delay_at(t_s);
+  delay_from_s_ = now;
+  delay_since_s_ = t_s;
+  delay_target_s_ = std::max(now, target_s);
+  delay_rate_ = std::clamp(rate, 0.0, 0.95);
+  ++revision_;
+}
 
 mpc::ReferencePoint AgentReference::at(double t_s) const {
   mpc::ReferencePoint p = detour_ && t_s >= detour_->start_time_s() && t_s <= detour_->end_time_s()
@@ -32,6 +57,7 @@ void AgentReference::set_level(double t_s, double target_m, double rate_m_s) {
   level_since_s_ = t_s;
   level_target_m_ = target_m;
   level_rate_m_s_ = rate_m_s;
+  ++revision_;
 }
 
 double AgentReference::level_at(double t_s) const {
@@ -42,7 +68,7 @@ double AgentReference::level_at(double t_s) const {
 
 double AgentReference::rejoin(double t_s, const Vec3& position_m, double max_back_s,
                               double max_ahead_s) {
-  const double now_plan = t_s - delay_s_;
+  const double now_plan = t_s - delay_at(t_s);
   const double lo = std::max(plan_->start_time_s(), now_plan - max_back_s);
   const double hi = std::min(plan_->end_time_s(), now_plan + max_ahead_s);
   double best_time = std::clamp(now_plan, plan_->start_time_s(), plan_->end_time_s());
@@ -55,13 +81,17 @@ double AgentReference::rejoin(double t_s, const Vec3& position_m, double max_bac
       best_time = tp;
     }
   }
-  delay_s_ = t_s - best_time;
+  delay_from_s_ = delay_target_s_ = t_s - best_time;
+  delay_since_s_ = t_s;
   detour_.reset();
-  return delay_s_;
+  ++revision_;
+  return delay_target_s_;
 }
 
 void AgentReference::set_detour(std::optional<mpc::SampledReference> detour) {
+  if (!detour && !detour_) return;
   detour_ = std::move(detour);
+  ++revision_;
 }
 
 namespace {

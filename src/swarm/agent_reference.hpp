@@ -11,6 +11,10 @@
 //    window r is the delayed plan, so the detour joins it continuously.
 //  - a level: a vertical offset of the whole reference (set_level()), the separation
 //    protocol's way of crossing a neighbour's path above or below it.
+//  - a growing delay (set_delay()): the plan flown slower for a while, the separation
+//    protocol's way of letting a neighbour pass first. The delay grows at a rate ρ < 1: the
+//    reference moves along the plan at (1 − ρ) of its speed meanwhile, and its speed, turn
+//    rate and climb rate say so (the tracker's feed-forward).
 #pragma once
 
 #include <memory>
@@ -31,10 +35,20 @@ class AgentReference : public mpc::ReferenceTrajectory {
 
   mpc::ReferencePoint at(double t_s) const override;
 
-  /// The plan's own (undeformed) reference at the agent's time t, with the current delay.
+  /// The plan's own (undeformed) reference at the agent's time t, with the delay at t.
   mpc::ReferencePoint plan_at(double t_s) const;
-  double delay_s() const { return delay_s_; }
-  double plan_end_time_s() const { return plan_->end_time_s() + delay_s_; }
+  /// The plan at its own time (no delay, detour or level).
+  mpc::ReferencePoint plan_point(double plan_time_s) const { return plan_->at(plan_time_s); }
+  /// The delay at t: it grows from its value at the last set_delay() toward its target.
+  double delay_at(double t_s) const;
+  double delay_target_s() const { return delay_target_s_; }
+  double delay_rate() const { return delay_rate_; }
+  double plan_end_time_s() const { return plan_->end_time_s() + delay_target_s_; }
+  /// Grows with every change of the reference's future (level, delay, detour, re-join).
+  int revision() const { return revision_; }
+
+  /// Lets the delay grow from its value at t to `target_s` (not below it) at `rate` in [0, 1).
+  void set_delay(double t_s, double target_s, double rate);
   bool has_detour() const { return detour_.has_value(); }
 
   /// Re-joins the plan at the point nearest to `position_m` among plan times within
@@ -55,7 +69,11 @@ class AgentReference : public mpc::ReferenceTrajectory {
 
  private:
   std::shared_ptr<const mpc::SampledReference> plan_;
-  double delay_s_ = 0.0;
+  double delay_from_s_ = 0.0;  ///< the delay at delay_since_s_
+  double delay_target_s_ = 0.0;
+  double delay_since_s_ = 0.0;
+  double delay_rate_ = 0.0;
+  int revision_ = 0;
   std::optional<mpc::SampledReference> detour_;
   double level_from_m_ = 0.0;    ///< the offset at level_since_s_
   double level_target_m_ = 0.0;

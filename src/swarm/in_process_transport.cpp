@@ -23,6 +23,7 @@ InProcessTransport::InProcessTransport(int num_participants, const LinkModel& li
 
 void InProcessTransport::publish(int sender, double now_s, const Message& message) {
   ++stats_.published;
+  const auto shared = std::make_shared<const Message>(message);
   for (int receiver = 0; receiver < num_participants_; ++receiver) {
     if (receiver == sender) continue;
     ++stats_.sent;
@@ -33,17 +34,17 @@ void InProcessTransport::publish(int sender, double now_s, const Message& messag
       ++stats_.dropped;
       continue;
     }
-    Pending pending{Envelope{sender, now_s, now_s + link_.latency_s + jitter, message},
-                    next_sequence_++};
-    inboxes_[static_cast<std::size_t>(receiver)].push(std::move(pending));
+    inboxes_[static_cast<std::size_t>(receiver)].push(
+        Pending{sender, now_s, now_s + link_.latency_s + jitter, next_sequence_++, shared});
   }
 }
 
 void InProcessTransport::receive(int receiver, double now_s, std::vector<Envelope>& out) {
   if (receiver < 0 || receiver >= num_participants_) return;
   auto& inbox = inboxes_[static_cast<std::size_t>(receiver)];
-  while (!inbox.empty() && inbox.top().envelope.delivered_s <= now_s) {
-    out.push_back(inbox.top().envelope);
+  while (!inbox.empty() && inbox.top().delivered_s <= now_s) {
+    const Pending& p = inbox.top();
+    out.push_back(Envelope{p.sender, p.sent_s, p.delivered_s, *p.message});
     inbox.pop();
     ++stats_.delivered;
   }

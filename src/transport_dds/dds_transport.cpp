@@ -131,8 +131,9 @@ void DdsTransport::accept(swarm::Message message, int sender, double sent_s, dou
     // seen in the tick it was sent, whatever DDS's own (wall-clock) delivery time was.
     delivered_s = std::max(now_s, sent_s + link.latency_s + jitter);
   }
-  pending_.push(
-      Pending{swarm::Envelope{sender, sent_s, delivered_s, std::move(message)}, next_sequence_++});
+  pending_.push(Pending{delivered_s, next_sequence_++,
+                        std::make_unique<swarm::Envelope>(
+                            swarm::Envelope{sender, sent_s, delivered_s, std::move(message)})});
 }
 
 double DdsTransport::newest_prediction_stamp(int uav) const {
@@ -150,8 +151,8 @@ void DdsTransport::receive(int receiver, double now_s, std::vector<swarm::Envelo
     throw InputError("receiver", fmt::format("this transport receives for participant {}, not {}",
                                              options_.participant_id, receiver));
   poll(now_s);
-  while (!pending_.empty() && pending_.top().envelope.delivered_s <= now_s) {
-    out.push_back(pending_.top().envelope);
+  while (!pending_.empty() && pending_.top().delivered_s <= now_s) {
+    out.push_back(std::move(*pending_.top().envelope));
     pending_.pop();
     ++stats_.delivered;
   }

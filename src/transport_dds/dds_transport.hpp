@@ -71,14 +71,16 @@ class DdsTransport : public swarm::Transport {
 
  private:
   struct Impl;
+  // The envelope is held by pointer: the heap moves entries, and GCC 12 misreads moves of
+  // the message variant as uses of uninitialized memory (-Wmaybe-uninitialized).
   struct Pending {
-    swarm::Envelope envelope;
-    std::uint64_t sequence;
+    double delivered_s = 0.0;
+    std::uint64_t sequence = 0;
+    std::unique_ptr<swarm::Envelope> envelope;
   };
   struct Later {
     bool operator()(const Pending& a, const Pending& b) const {
-      if (a.envelope.delivered_s != b.envelope.delivered_s)
-        return a.envelope.delivered_s > b.envelope.delivered_s;
+      if (a.delivered_s != b.delivered_s) return a.delivered_s > b.delivered_s;
       return a.sequence > b.sequence;
     }
   };

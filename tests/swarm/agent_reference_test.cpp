@@ -99,7 +99,7 @@ TEST(PlanDetour, DetourIsRaisedOverTerrainAndFailsAboveTheCeiling) {
 
 TEST(AgentReference, RejoinDelaysThePlanToTheNearestPoint) {
   AgentReference r(straight_line());
-  EXPECT_DOUBLE_EQ(r.delay_s(), 0.0);
+  EXPECT_DOUBLE_EQ(r.delay_at(0.0), 0.0);
   // At t = 50 s the UAV is at x = 300 m (20 s behind): the plan is delayed by 20 s.
   const double delay = r.rejoin(50.0, Vec3(300.0, 5.0, 100.0), 120.0, 30.0);
   EXPECT_NEAR(delay, 20.0, 0.11);

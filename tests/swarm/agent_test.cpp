@@ -178,8 +178,8 @@ TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourByALevel) {
   EXPECT_DOUBLE_EQ(yielding.reference().level_target_m(), 15.0);
   EXPECT_FALSE(yielding.reference().has_detour());
   EXPECT_GE(yielding.reference().at(7.5).position_m.z() - 100.0, 15.0 - 1e-9);
-  // Its prediction tells the others how far it has still to climb.
-  EXPECT_GT(yielding.prediction_message().level_shift_m, 0.0);
+  // Its intent tells the others where it will be beyond its prediction: a level up.
+  EXPECT_GT(yielding.prediction_message().intent_m.at(7).z(), 100.0 + 14.0);
 
   // The lower id keeps its plan: the other one gives way.
   Agent keeping(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
@@ -196,6 +196,7 @@ TEST(Agent, WithoutLevelsTheHigherIdYieldsWithADetour) {
   const PredictedTrajectory head_on = broadcast(0, 0.0, Vec3(150, 0, 100), Vec3(-10, 0, 0));
   AgentOptions o = options(1, 2);
   o.max_levels = 0;
+  o.max_delay_s = 0.0;
   Agent yielding(o, world::SafetyLimits{}, line_east(0.0), flat());
   yielding.receive(Envelope{0, 0.0, 0.0, head_on});
   yielding.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
@@ -208,13 +209,54 @@ TEST(Agent, WithoutLevelsTheHigherIdYieldsWithADetour) {
 }
 
 TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
+  // With levels: passed a level above (a delay cannot help against a UAV that stays).
   Agent a(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
   a.receive(Envelope{1, 0.0, 0.0, broadcast(1, 0.0, Vec3(60, 0, 100), Vec3::Zero())});
   a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
-  EXPECT_EQ(a.counters().neighbour_conflicts, 1u);
-  ASSERT_TRUE(a.reference().has_detour());
-  const Vec3 passing = a.reference().at(6.0).position_m;
+  // The climb to +15 m takes 5.8 s and the neighbour's zone starts 4 s ahead: a short delay
+  // lets the level be reached first.
+  EXPECT_EQ(a.counters().level_changes, 1u);
+  EXPECT_LE(a.reference().delay_target_s(), 4.0);
+  for (double t = 0.0; t <= 20.0; t += 0.1)
+    EXPECT_GE((a.reference().at(t).position_m - Vec3(60, 0, 100)).norm(), 15.0 - 1e-9) << t;
+  // Without levels and delays: a detour around it.
+  AgentOptions o = options(0, 2);
+  o.max_levels = 0;
+  o.max_delay_s = 0.0;
+  Agent b(o, world::SafetyLimits{}, line_east(0.0), flat());
+  b.receive(Envelope{1, 0.0, 0.0, broadcast(1, 0.0, Vec3(60, 0, 100), Vec3::Zero())});
+  b.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(b.counters().neighbour_conflicts, 1u);
+  ASSERT_TRUE(b.reference().has_detour());
+  const Vec3 passing = b.reference().at(6.0).position_m;
   EXPECT_GE(std::hypot(passing.x() - 60.0, passing.y()), 10.0 + 10.0 + 15.0 - 1.0);
+}
+
+TEST(Agent, ACrossingNeighbourOfHigherPriorityIsLetThroughFirstWhenNoLevelIsFree) {
+  // A neighbour crosses the path at right angles at x = 100 m at t = 10 s. Levels are off:
+  // the yielding UAV takes a delay and passes the crossing after the neighbour.
+  PredictedTrajectory crossing = broadcast(0, 0.0, Vec3(100, -100, 100), Vec3(0, 10, 0));
+  for (int k = 0; k <= 32; ++k)
+    crossing.intent_m.push_back(Vec3(100, -100, 100) + Vec3(0, 10, 0) * k);
+  AgentOptions o = options(1, 2);
+  o.max_levels = 0;
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
+  a.receive(Envelope{0, 0.0, 0.0, crossing});
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(a.counters().delay_changes, 1u);
+  EXPECT_GT(a.reference().delay_target_s(), 0.0);
+  EXPECT_FALSE(a.reference().has_detour());
+  // The reference keeps d_safe + the conflict margin from the neighbour's intent throughout,
+  // and is flown above v_min meanwhile.
+  for (double t = 0.0; t <= 30.0; t += 0.1) {
+    const mpc::ReferencePoint r = a.reference().at(t);
+    EXPECT_GE((r.position_m - messages::expected_position(crossing, t)).norm(), 19.0) << t;
+    EXPECT_GE(r.speed_m_s, 5.0) << t;
+  }
+  // Its intent says so: where it will be at t = 10 s is short of the crossing.
+  const PredictedTrajectory mine = a.prediction_message();
+  ASSERT_GE(mine.intent_m.size(), 31u);
+  EXPECT_LT(mine.intent_m[10].x(), 100.0 - 20.0);
 }
 
 TEST(Agent, ANeighbourOnAParallelTrackIsNoConflict) {
