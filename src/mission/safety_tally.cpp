@@ -33,11 +33,25 @@ void SafetyTally::sample(double t, const TruthWorld& world) {
     double& clearance = min_clearance_m_[static_cast<std::size_t>(i)];
     clearance = std::min(clearance, p.z() - terrain_.height(p.x(), p.y()));
     for (int j = i + 1; j < n; ++j) {
-      const double d = (p - world.true_position(j)).norm();
+      const Vec3 now = p - world.true_position(j);
+      double d = now.norm(), when = t;
+      if (!previous_positions_.empty()) {
+        // Closest approach of the relative motion, straight from the previous sample to this.
+        const Vec3 before = previous_positions_[static_cast<std::size_t>(i)] -
+                            previous_positions_[static_cast<std::size_t>(j)];
+        const Vec3 change = now - before;
+        const double c2 = change.squaredNorm();
+        const double s = c2 > 0.0 ? std::clamp(-before.dot(change) / c2, 0.0, 1.0) : 1.0;
+        const double between = (before + s * change).norm();
+        if (between < d) {
+          d = between;
+          when = previous_time_s_ + s * (t - previous_time_s_);
+        }
+      }
       if (d < min_separation_m_) {
         min_separation_m_ = d;
         closest_pair_ = {i, j};
-        closest_time_s_ = t;
+        closest_time_s_ = when;
       }
       if (d < separation_m_) close_pairs_.insert({i, j});
     }
@@ -49,6 +63,9 @@ void SafetyTally::sample(double t, const TruthWorld& world) {
       if (d < threat_margin_m_) margin_violations_.insert({i, static_cast<int>(k)});
     }
   }
+  previous_positions_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) previous_positions_[static_cast<std::size_t>(i)] = world.true_position(i);
+  previous_time_s_ = t;
 }
 
 void SafetyTally::write(MissionMetrics& m) const {

@@ -272,6 +272,7 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
   last_slot_check_s_ = t_s;
   if (options_.max_levels <= 0 && options_.max_delay_s <= 0.0) return false;
   constexpr double kStep = 0.5;  // s; at 20 m/s closing speed, 10 m between checks
+  constexpr double kTargetBandMargin = 3.0;  // m of a target's band left for tracking error
   const double spacing = options_.level_spacing_m;
   const double crossing = limits_.separation_m + options_.neighbour_conflict_margin_m;
   const int samples = static_cast<int>(options_.level_lookahead_s / kStep) + 1;
@@ -334,7 +335,8 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
         for (std::size_t k = static_cast<std::size_t>(next_target_); ok && k < options_.targets.size(); ++k) {
           const AgentTarget& target_k = options_.targets[k];
           if ((r.head<2>() - target_k.position_m.head<2>()).norm() <= target_k.radius_m)
-            ok = std::abs(z - target_k.position_m.z()) <= 0.5 * target_k.altitude_band_m;
+            ok = std::abs(z - target_k.position_m.z()) <=
+                 std::max(0.0, target_k.altitude_band_m - kTargetBandMargin);
         }
         if (!ok) feasible_[d * nl + c] = 0;
       }

@@ -36,6 +36,15 @@
 //     the higher id, or either one when the other is (nearly) stationary, e.g. finished and
 //     holding. One rule known to all avoids two UAVs swerving into each other; the MPC's
 //     neighbour rows keep d_safe in any case.
+//     Before the detour, the separation protocol's slot (choose_slot, README "Separation in
+//     dense teams"): every prediction carries its sender's intent (where its reference will
+//     be every second over the look-ahead, its level and delay included); the UAV that
+//     yields gives its own reference a level (a vertical offset) and a delay (the plan flown
+//     later, slower meanwhile) such that, checked at equal times with the ramps, no intent of
+//     a neighbour it yields to comes within d_safe + the conflict margin horizontally while
+//     less than a level apart vertically. It keeps a free slot (the others plan around it),
+//     takes the cheapest free one otherwise, and re-checks at once when such a neighbour's
+//     intent moves. A neighbour a free slot clears needs no detour.
 //  3. tracking: the MPC tracker with the known threats, the neighbours' broadcast predictions
 //     and the terrain as soft constraints.
 //  4. safe fallback: when the QP is not solved for fallback_after_failures consecutive steps,
@@ -99,10 +108,10 @@ struct AgentOptions {
   /// steps of delay_step_s, the delay growing at delay_rate: the plan at (1 − rate) of its
   /// speed meanwhile). A level step costs as much as delay_per_level_s of delay.
   double level_spacing_m = 15.0;
-  double level_lookahead_s = 30.0;
+  double level_lookahead_s = 40.0;
   int max_levels = 4;
   double level_terrain_margin_m = 10.0;
-  double max_delay_s = 16.0;      ///< ≥ 0; 0 turns delays off
+  double max_delay_s = 30.0;      ///< ≥ 0; 0 turns delays off
   double delay_step_s = 2.0;      ///< > 0
   double delay_rate = 0.4;        ///< in (0, 1): 10 m/s flown at 6 m/s, above v_min
   double delay_per_level_s = 3.0;  ///< > 0

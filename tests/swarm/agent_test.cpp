@@ -232,6 +232,26 @@ TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
   EXPECT_GE(std::hypot(passing.x() - 60.0, passing.y()), 10.0 + 10.0 + 15.0 - 1.0);
 }
 
+TEST(Agent, ASlotNeverLiftsTheUavOutOfATargetsAltitudeBand) {
+  // The same crossing, over a target at the crossing point whose band is ±5 m: a level would
+  // miss the inspection, so the UAV keeps the plan's altitude and takes a delay.
+  PredictedTrajectory crossing = broadcast(0, 0.0, Vec3(100, -100, 100), Vec3(0, 10, 0));
+  for (int k = 0; k <= 42; ++k)
+    crossing.intent_m.push_back(Vec3(100, -100, 100) + Vec3(0, 10, 0) * k);
+  AgentOptions o = options(1, 2);
+  o.targets.insert(o.targets.begin(), AgentTarget{"bridge", Vec3(100.0, 0.0, 100.0), 30.0, 10.0});
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
+  a.receive(Envelope{0, 0.0, 0.0, crossing});
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_DOUBLE_EQ(a.reference().level_target_m(), 0.0);
+  EXPECT_GT(a.reference().delay_target_s(), 0.0);
+  // Without the target the cheaper slot is a level.
+  Agent b(options(1, 2), world::SafetyLimits{}, line_east(0.0), flat());
+  b.receive(Envelope{0, 0.0, 0.0, crossing});
+  b.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  EXPECT_NE(b.reference().level_target_m(), 0.0);
+}
+
 TEST(Agent, ACrossingNeighbourOfHigherPriorityIsLetThroughFirstWhenNoLevelIsFree) {
   // A neighbour crosses the path at right angles at x = 100 m at t = 10 s. Levels are off:
   // the yielding UAV takes a delay and passes the crossing after the neighbour.
