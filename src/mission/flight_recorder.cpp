@@ -124,6 +124,7 @@ MissionResult FlightRecorder::finish(double t, const std::vector<UavOutcome>& ou
     um.rejoins = static_cast<long long>(c.rejoins);
     um.level_changes = static_cast<long long>(c.level_changes);
     um.delay_changes = static_cast<long long>(c.delay_changes);
+    um.reapproaches = static_cast<long long>(c.reapproaches);
     um.fallback_steps = static_cast<long long>(c.fallback_steps);
     um.qp_failures = static_cast<long long>(c.qp_failures);
     um.stale_neighbour_steps = static_cast<long long>(c.stale_neighbour_steps);

@@ -48,6 +48,7 @@ nlohmann::json to_json(const MissionMetrics& m) {
                     {"rejoins", u.rejoins},
                     {"level_changes", u.level_changes},
                     {"delay_changes", u.delay_changes},
+                    {"reapproaches", u.reapproaches},
                     {"fallback_steps", u.fallback_steps},
                     {"qp_failures", u.qp_failures},
                     {"stale_neighbour_steps", u.stale_neighbour_steps},

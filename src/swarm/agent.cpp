@@ -92,7 +92,28 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
     require(target.radius_m > 0.0 && target.altitude_band_m > 0.0, "targets.radius_m",
             "radius and altitude band must be positive");
   }
+  require(options.reapproach_after_s > 0.0 && std::isfinite(options.reapproach_after_s),
+          "reapproach_after_s", "must be positive and finite");
+  require(options.reapproach_lead_s >= 0.0 && std::isfinite(options.reapproach_lead_s),
+          "reapproach_lead_s", "must be finite and >= 0");
+  require(options.max_reapproaches >= 0, "max_reapproaches", "must not be negative");
   last_command_ = vehicle::Input(options.tracker.vehicle.cruise_speed_m_s, 0.0, 0.0);
+  // Each target's pass: the plan's closest approach, searched in visiting order.
+  double from = reference_->plan_start_time_s();
+  const double end = reference_->plan_end_time_s();
+  for (const AgentTarget& target : options_.targets) {
+    double best = std::numeric_limits<double>::infinity(), best_time = from;
+    for (double tp = from; tp <= end; tp += 0.2) {  // 2 m at cruise
+      const double d = (reference_->plan_point(tp).position_m - target.position_m).norm();
+      if (d < best) {
+        best = d;
+        best_time = tp;
+      }
+    }
+    target_pass_s_.push_back(best_time);
+    from = best_time;
+  }
+  reapproaches_.assign(options_.targets.size(), 0);
 }
 
 void Agent::receive(const Envelope& envelope) {
@@ -212,12 +233,48 @@ bool Agent::hold_point_threatened(double t_s, const Vec3& position_m) const {
   return false;
 }
 
+void Agent::reapproach_blocked_target(double t_s) {
+  const std::size_t k = static_cast<std::size_t>(next_target_);
+  if (k >= options_.targets.size() || reapproaches_[k] >= options_.max_reapproaches) return;
+  const double plan_now = t_s - reference_->delay_at(t_s);
+  if (plan_now < target_pass_s_[k] + options_.reapproach_after_s) return;
+  // The mission's time: the missed-target deadline as it stood before this re-approach.
+  if (t_s > reference_->plan_end_time_s() + options_.missed_after_s) return;
+  // A racetrack back onto the plan reapproach_lead_s before the pass, turned at half the
+  // maximum turn rate; the plan is then flown again from there (the delay makes it so).
+  const vehicle::VehicleParams& v = options_.tracker.vehicle;
+  const double speed = v.cruise_speed_m_s;
+  const double radius = 2.0 * speed / v.max_turn_rate_rad_s(speed);
+  const double entry_time = target_pass_s_[k] - options_.reapproach_lead_s;
+  const Vec3 position = estimate_ ? Vec3(estimate_->head<3>()) : reference_->at(t_s).position_m;
+  const double heading = estimate_ ? (*estimate_)[vehicle::kPsi] : reference_->at(t_s).heading_rad;
+  std::optional<mpc::SampledReference> loop =
+      plan_reapproach_loop(t_s, position, heading, reference_->plan_point(entry_time), radius,
+                           speed, *terrain_, limits_);
+  ++reapproaches_[k];
+  if (!loop) {
+    ++counters_.replan_failures;
+    return;
+  }
+  reapproach_until_s_ = loop->end_time_s();
+  reference_->rewind(reapproach_until_s_, entry_time);
+  reference_->set_detour(std::move(loop));
+  ++counters_.reapproaches;
+}
+
 void Agent::replan(double t_s, const Vec3& position_m) {
   last_replan_s_ = t_s;
   replan_requested_ = false;
+  reapproach_blocked_target(t_s);
   // Far behind (or off) the reference after an avoidance: re-join the validated path.
   if ((reference_->at(t_s).position_m - position_m).norm() > options_.rejoin_distance_m) {
-    reference_->rejoin(t_s, position_m, 120.0, 30.0);
+    // Never re-join past an open target: that would give it up.
+    double ahead = 30.0;
+    if (static_cast<std::size_t>(next_target_) < target_pass_s_.size())
+      ahead = std::clamp(target_pass_s_[static_cast<std::size_t>(next_target_)] -
+                             (t_s - reference_->delay_at(t_s)),
+                         0.0, ahead);
+    reference_->rejoin(t_s, position_m, 120.0, ahead);
     ++counters_.rejoins;
   }
   choose_slot(t_s, position_m);
@@ -253,7 +310,7 @@ void Agent::replan(double t_s, const Vec3& position_m) {
   DetourResult detour = plan_detour(plan, t_s, threat_buffer_, *terrain_, limits_, options_.detour);
   switch (detour.status) {
     case DetourResult::Status::kNoConflict:
-      reference_->set_detour(std::nullopt);
+      if (t_s >= reapproach_until_s_) reference_->set_detour(std::nullopt);  // a loop stays
       break;
     case DetourResult::Status::kPlanned:
       reference_->set_detour(std::move(detour.reference));

@@ -125,6 +125,14 @@ struct AgentOptions {
   double rejoin_distance_m = 40.0;
   double lost_reference_m = 120.0;
   double missed_after_s = 30.0;
+  /// A blocked target is not given up: when the reference has gone reapproach_after_s past a
+  /// target's pass (the plan's closest approach to it) and the target is still open, the UAV
+  /// flies a racetrack (two 180° turns at half its turn rate) back onto the plan
+  /// reapproach_lead_s before the pass and flies the plan again from there, at most
+  /// max_reapproaches times a target, while the mission's time lasts.
+  double reapproach_after_s = 3.0;
+  double reapproach_lead_s = 5.0;
+  int max_reapproaches = 3;
   /// A UAV that has inspected its last target holds (hovers) only once no known threat is
   /// predicted to come within R + r_safe + detour clearance of it within this time; until
   /// then it keeps tracking, so its detour re-plan can take it out of the threat's way.
@@ -201,6 +209,8 @@ class Agent final : public UavAgent {
   /// of `position_m` during [t, t + finish_threat_guard_s].
   bool hold_point_threatened(double t_s, const Vec3& position_m) const;
   void replan(double t_s, const Vec3& position_m);
+  /// Rewinds the reference when the next target was passed without being inspected.
+  void reapproach_blocked_target(double t_s);
   /// The separation protocol's slot: level and delay (AgentOptions::level_spacing_m).
   /// Returns whether the slot changed.
   bool choose_slot(double t_s, const Vec3& position_m);
@@ -243,6 +253,9 @@ class Agent final : public UavAgent {
   AgentMode mode_ = AgentMode::kTracking;
   int next_target_ = 0;
   std::vector<std::string> missed_;
+  std::vector<double> target_pass_s_;  ///< plan time of the plan's closest approach, per target
+  std::vector<int> reapproaches_;      ///< per target
+  double reapproach_until_s_ = -1e9;   ///< the end of a re-approach loop being flown
   int consecutive_failures_ = 0;
   int consecutive_successes_ = 0;
   double last_replan_s_ = -1e9;

@@ -88,6 +88,14 @@ double AgentReference::rejoin(double t_s, const Vec3& position_m, double max_bac
   return delay_target_s_;
 }
 
+void AgentReference::rewind(double t_s, double plan_time_s) {
+  delay_from_s_ = delay_target_s_ =
+      t_s - std::clamp(plan_time_s, plan_->start_time_s(), plan_->end_time_s());
+  delay_since_s_ = t_s;
+  detour_.reset();
+  ++revision_;
+}
+
 void AgentReference::set_detour(std::optional<mpc::SampledReference> detour) {
   if (!detour && !detour_) return;
   detour_ = std::move(detour);
@@ -194,6 +202,50 @@ DetourResult plan_detour(const mpc::ReferenceTrajectory& reference, double t_s,
   }
   result.status = DetourResult::Status::kPlanned;
   return result;
+}
+
+std::optional<mpc::SampledReference> plan_reapproach_loop(double t_s, const Vec3& from_m,
+                                                          double from_heading_rad,
+                                                          const mpc::ReferencePoint& entry,
+                                                          double radius_m, double speed_m_s,
+                                                          const world::Terrain& terrain,
+                                                          const world::SafetyLimits& limits) {
+  const auto left = [](double h) { return Vec2(-std::sin(h), std::cos(h)); };
+  const Vec2 p0 = horizontal(from_m), e = horizontal(entry.position_m);
+  // Turn toward the entry's side: both turns the same way, so the loop closes on the track.
+  const double side = left(from_heading_rad).dot(e - p0) >= 0.0 ? 1.0 : -1.0;  // +1: left
+  const Vec2 c1 = p0 + side * radius_m * left(from_heading_rad);
+  const Vec2 s2 = e + side * 2.0 * radius_m * left(entry.heading_rad);  // where turn 2 starts
+  const Vec2 c2 = e + side * radius_m * left(entry.heading_rad);
+  const Vec2 p1 = p0 + side * 2.0 * radius_m * left(from_heading_rad);  // where turn 1 ends
+  const double arc = kPi * radius_m, straight = (s2 - p1).norm();
+  const double length = 2.0 * arc + straight;
+  const double step = 0.2;  // s
+  const int n = std::max(3, static_cast<int>(std::ceil(length / speed_m_s / step)) + 1);
+  std::vector<double> times(static_cast<std::size_t>(n));
+  std::vector<Vec3> positions(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    const double along = length * k / (n - 1);
+    Vec2 q;
+    if (along <= arc) {  // turn 1 about c1, from p0
+      const double a = side * along / radius_m;
+      const Vec2 r = p0 - c1;
+      q = c1 + Vec2(std::cos(a) * r.x() - std::sin(a) * r.y(), std::sin(a) * r.x() + std::cos(a) * r.y());
+    } else if (along <= arc + straight) {
+      q = p1 + (s2 - p1) * ((along - arc) / std::max(straight, 1e-9));
+    } else {  // turn 2 about c2, from s2
+      const double a = side * (along - arc - straight) / radius_m;
+      const Vec2 r = s2 - c2;
+      q = c2 + Vec2(std::cos(a) * r.x() - std::sin(a) * r.y(), std::sin(a) * r.x() + std::cos(a) * r.y());
+    }
+    const double z = from_m.z() + (entry.position_m.z() - from_m.z()) * k / (n - 1);
+    const double floor = terrain.height(q.x(), q.y()) + limits.terrain_clearance_m +
+                         terrain.model_error_m() + 5.0;
+    positions[static_cast<std::size_t>(k)] = Vec3(q.x(), q.y(), std::max(z, floor));
+    if (!limits.altitude.contains(positions[static_cast<std::size_t>(k)].z())) return std::nullopt;
+    times[static_cast<std::size_t>(k)] = t_s + length / speed_m_s * k / (n - 1);
+  }
+  return mpc::SampledReference::from_positions(times, positions);
 }
 
 }  // namespace ridgeline::swarm

@@ -44,8 +44,13 @@ class AgentReference : public mpc::ReferenceTrajectory {
   double delay_target_s() const { return delay_target_s_; }
   double delay_rate() const { return delay_rate_; }
   double plan_end_time_s() const { return plan_->end_time_s() + delay_target_s_; }
+  double plan_start_time_s() const { return plan_->start_time_s(); }
   /// Grows with every change of the reference's future (level, delay, detour, re-join).
   int revision() const { return revision_; }
+
+  /// Sets the delay so that r(t) is the plan at `plan_time_s` (earlier than now: the plan is
+  /// flown again from there), and drops any detour.
+  void rewind(double t_s, double plan_time_s);
 
   /// Lets the delay grow from its value at t to `target_s` (not below it) at `rate` in [0, 1).
   void set_delay(double t_s, double target_s, double rate);
@@ -100,6 +105,18 @@ struct DetourResult {
   std::optional<mpc::SampledReference> reference;
   std::string message;
 };
+
+/// A re-approach loop (a racetrack): from `from` (position, heading) a 180° turn of radius
+/// `radius_m` toward the side of `entry`, straight back, and a 180° turn the same way that
+/// ends at `entry` on its heading, flown at `speed_m_s` from t_s; the altitude moves
+/// linearly from the start's to the entry's, raised to h_safe + 5 m above the terrain.
+/// Returns nothing when the loop would leave the altitude band.
+std::optional<mpc::SampledReference> plan_reapproach_loop(double t_s, const Vec3& from_m,
+                                                          double from_heading_rad,
+                                                          const mpc::ReferencePoint& entry,
+                                                          double radius_m, double speed_m_s,
+                                                          const world::Terrain& terrain,
+                                                          const world::SafetyLimits& limits);
 
 /// Checks the reference over [t, t + lookahead] against the threats' predicted motion and, on
 /// a conflict, builds a detour: each sample is pushed horizontally away from the threat centre
