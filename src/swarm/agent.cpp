@@ -248,6 +248,12 @@ void Agent::reapproach_blocked_target(double t_s) {
   const double entry_time = target_pass_s_[k] - options_.reapproach_lead_s;
   const Vec3 position = estimate_ ? Vec3(estimate_->head<3>()) : reference_->at(t_s).position_m;
   const double heading = estimate_ ? (*estimate_)[vehicle::kPsi] : reference_->at(t_s).heading_rad;
+  // Only a UAV that has itself gone past the pass turns back; one still short of it (behind
+  // its reference after an avoidance) flies on to the target.
+  const mpc::ReferencePoint pass = reference_->plan_point(target_pass_s_[k]);
+  const Vec2 along(std::cos(pass.heading_rad), std::sin(pass.heading_rad));
+  constexpr double kPastBy = 10.0;  // m
+  if (along.dot((position - pass.position_m).head<2>()) < kPastBy) return;
   std::optional<mpc::SampledReference> loop =
       plan_reapproach_loop(t_s, position, heading, reference_->plan_point(entry_time), radius,
                            speed, *terrain_, limits_);

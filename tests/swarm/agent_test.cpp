@@ -258,6 +258,18 @@ TEST(Agent, ABlockedTargetIsApproachedAgain) {
   EXPECT_TRUE(a.missed_targets().empty() || a.missed_targets().front() != "blocked");
 }
 
+TEST(Agent, AUavBehindItsReferenceFliesOnToItsTargetInsteadOfTurningBack) {
+  // The reference passed the target (x = 100 m at 10 s) long ago, but the UAV, 150 m behind
+  // it after an avoidance, has not: no loop; it re-joins the plan short of the target.
+  AgentOptions o = options(1, 2);
+  o.targets.insert(o.targets.begin(), AgentTarget{"ahead", Vec3(100.0, 0.0, 100.0), 8.0, 10.0});
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
+  a.control(20.0, state_at(Vec3(50, 0, 100)), Vec3::Zero());
+  EXPECT_EQ(a.counters().reapproaches, 0u);
+  EXPECT_EQ(a.counters().rejoins, 1u);
+  EXPECT_NEAR(a.reference().at(20.0).position_m.x(), 50.0, 1.5);
+}
+
 TEST(Agent, ASlotNeverLiftsTheUavOutOfATargetsAltitudeBand) {
   // The same crossing, over a target at the crossing point whose band is ±5 m: a level would
   // miss the inspection, so the UAV keeps the plan's altitude and takes a delay.
