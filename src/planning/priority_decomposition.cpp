@@ -10,6 +10,7 @@
 #include <mutex>
 #include <numeric>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include "planning/trajectory_ipopt.hpp"
@@ -92,14 +93,14 @@ class UavSolver {
     own_.max_index = own_.uavs[0].segments();
     // Grid steps on which two UAVs at most `reach_` apart at both ends can come within the
     // prefilter (or d_safe) between them, their references' corners included.
-    reach_ = options.separation_prefilter_m + 2.0 * max_speed(problem) * team.dt + 30.0;
+    reach_ = std::max(options.separation_prefilter_m, options.obstacle_prefilter_m) +
+             2.0 * max_speed(problem) * team.dt + 30.0;
   }
 
-  /// Solves against `others` (indices into the team with their solutions) within `budget_s`,
-  /// from `start` (waypoints on the grid) or else the UAV's guess.
-  Outcome solve(const std::vector<std::pair<int, const Solved*>>& others, double budget_s,
+  /// Solves against `others` (indices into the team with their solutions) within the budget
+  /// of `meter` (this thread's), from `start` (waypoints on the grid) or else the UAV's guess.
+  Outcome solve(const std::vector<std::pair<int, const Solved*>>& others, CpuMeter& meter,
                 const std::vector<Vec3>* start = nullptr) {
-    const auto t0 = Clock::now();
     const GridUav& g = own_.uavs[0];
     const int n = g.segments();
     NlpSetup setup;
@@ -132,7 +133,7 @@ class UavSolver {
     Multipliers previous_bounds;
     bool have_previous = false;
     std::string last_problem;
-    for (int round = 0; round <= options_.max_refinements; ++round) {
+    for (int round = 0; round <= options_.uav_max_refinements; ++round) {
       setup.obstacles = obstacle_rows(others, current);
       const TrajectoryNlp nlp(setup);
       out.variables = nlp.num_variables();
@@ -150,10 +151,12 @@ class UavSolver {
         if (options_.warm_start_refinements)
           warm = detail::warm_start(nlp, previous_bounds, previous_lambda);
       }
-      const double remaining_s = budget_s - seconds_since(t0);
+      const double remaining_s = meter.remaining_s();
       if (remaining_s <= 0.0)
         return {TrajectoryStatus::kTimeLimit,
-                fmt::format("{}: time budget exhausted after {} solve(s)", g.name, out.solves), {}};
+                fmt::format("{}: time budget of {:.1f} s CPU exhausted after {} solve(s)", g.name,
+                            options_.time_budget_s, out.solves),
+                {}};
       TrajectoryOptimizerOptions solve_options = options_;
       // One UAV's NLP: iterations_per_uav (Ipopt needs 5–150 on the generated teams; a stall at a
       // feasible point is taken below).
@@ -254,7 +257,7 @@ class UavSolver {
  private:
   // Obstacle rows where `points` come within the prefilter of another UAV's reference.
   std::vector<ObstacleRow> obstacle_rows(const std::vector<std::pair<int, const Solved*>>& others,
-                                         const std::vector<Vec3>& points) const {
+                                         const std::vector<Vec3>& points) {
     const GridUav& g = own_.uavs[0];
     const double dt = team_.dt;
     const double d_min = problem_.limits.separation_m + options_.separation_margin_m;
@@ -264,19 +267,25 @@ class UavSolver {
       for (int k = 0; k < g.segments(); ++k) {
         const double near = std::min((points[k] - held(other->waypoints, k)).norm(),
                                      (points[k + 1] - held(other->waypoints, k + 1)).norm());
-        if (near > reach_) continue;
+        const bool kept = with_rows_.count({index, k}) != 0;
+        if (near > reach_ && !kept) continue;
         int samples = options_.separation_samples_per_step;
         double extra = 0.0;
         if (auto it = refinement_.find({index, k}); it != refinement_.end())
           std::tie(samples, extra) = it->second;
+        std::vector<ObstacleRow> step_rows;
+        bool near_step = kept;
         for (int m = 0; m <= samples; ++m) {
           const double tau = static_cast<double>(m) / (samples + 1);
           if (m == 0 && g.fixed[k]) continue;
           const Vec3 q = (1.0 - tau) * points[k] + tau * points[k + 1];
           const Vec3 c = position_at(other->flown, (k + tau) * dt, hint);
-          if ((q - c).norm() > options_.separation_prefilter_m) continue;
-          rows.push_back({0, k, tau, c, c, d_min + extra, false, index});
+          near_step = near_step || (q - c).norm() <= options_.obstacle_prefilter_m;
+          step_rows.push_back({0, k, tau, c, c, d_min + extra, false, index});
         }
+        if (!near_step) continue;
+        with_rows_.insert({index, k});
+        rows.insert(rows.end(), step_rows.begin(), step_rows.end());
       }
     }
     return rows;
@@ -327,6 +336,7 @@ class UavSolver {
   TeamGrid own_;
   double reach_ = 0.0;
   std::map<std::pair<int, int>, std::pair<int, double>> refinement_;  // (other, step) → samples, extra
+  std::set<std::pair<int, int>> with_rows_;  // (other, step) that had obstacle rows: kept
 };
 
 // Earlier UAVs (in `order`) whose guesses come within `distance_m` of each UAV's at equal times.
@@ -382,15 +392,12 @@ GridUav guess_around(const TrajectoryProblem& problem, const TrajectoryOptimizer
 // its guess moved away from them.
 Outcome solve_uav(const TrajectoryProblem& problem, const TrajectoryOptimizerOptions& options,
                   const TeamGrid& team, int i,
-                  const std::vector<std::pair<int, const Solved*>>& others, double budget_s,
-                  Clock::time_point start, const std::vector<Vec3>* from = nullptr) {
-  if (budget_s <= 0.0) return {TrajectoryStatus::kTimeLimit, "time budget exhausted", {}};
-  Outcome first = UavSolver(problem, options, team, i).solve(others, budget_s, from);
+                  const std::vector<std::pair<int, const Solved*>>& others, CpuMeter& meter,
+                  const std::vector<Vec3>* from = nullptr) {
+  Outcome first = UavSolver(problem, options, team, i).solve(others, meter, from);
   if (first.solved || first.status == TrajectoryStatus::kTimeLimit || others.empty()) return first;
   const GridUav moved = guess_around(problem, options, team, i, others);
-  const double left_s = options.time_budget_s - seconds_since(start);
-  if (left_s <= 0.0) return first;
-  Outcome second = UavSolver(problem, options, team, i, &moved).solve(others, left_s);
+  Outcome second = UavSolver(problem, options, team, i, &moved).solve(others, meter);
   if (!second.solved)
     second.message = first.message + "; again from a guess moved away from the others: " +
                      second.message;
@@ -402,7 +409,7 @@ Outcome solve_uav(const TrajectoryProblem& problem, const TrajectoryOptimizerOpt
 TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
                                             const TrajectoryOptimizerOptions& options,
                                             const TeamGrid& team, TrajectoryResult result,
-                                            Clock::time_point start) {
+                                            Clock::time_point start, CpuBudget& budget) {
   const int n = static_cast<int>(team.uavs.size());
   result.decomposed = true;
   auto fail = [&](TrajectoryStatus status, std::string message) {
@@ -430,6 +437,7 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
   int finished = 0;
   bool any_refined = false;
   auto worker = [&] {
+    CpuMeter meter(budget);
     std::unique_lock lock(mutex);
     while (true) {
       int next = -1;
@@ -450,9 +458,8 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
       started[next] = 1;
       std::vector<std::pair<int, const Solved*>> others;
       for (int j : deps[next]) others.emplace_back(j, &*solved[j]);
-      const double budget_s = options.time_budget_s - seconds_since(start);
       lock.unlock();
-      Outcome outcome = solve_uav(problem, options, team, next, others, budget_s, start);
+      Outcome outcome = solve_uav(problem, options, team, next, others, meter);
       lock.lock();
       if (!outcome.solved) {
         if (!failure) failure = std::move(outcome);
@@ -494,6 +501,7 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
   validation.separation_period_s = options.validation_separation_period_s;
   std::vector<int> rank(n);
   for (int a = 0; a < n; ++a) rank[order[a]] = a;
+  CpuMeter repair_meter(budget);
   for (int repair = 0;; ++repair) {
     std::vector<TimedPath> flown;
     for (int i = 0; i < n; ++i) {
@@ -518,8 +526,7 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
       for (int j = 0; j < n; ++j)
         if (j != i) others.emplace_back(j, &*solved[j]);
       const std::vector<Vec3> from = solved[i]->waypoints;
-      Outcome outcome = solve_uav(problem, options, team, i, others,
-                                  options.time_budget_s - seconds_since(start), start, &from);
+      Outcome outcome = solve_uav(problem, options, team, i, others, repair_meter, &from);
       if (!outcome.solved) {
         tally();
         return fail(outcome.status, outcome.message);

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <coin/IpIpoptApplication.hpp>
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 #include <optional>
 #include <string>
 
+#include "core/cpu_clock.hpp"
 #include "planning/kkt_ldlt.hpp"
 
 namespace ridgeline::planning::detail {
@@ -17,17 +19,21 @@ namespace {
 // Ipopt adapter around the solver-independent transcription.
 class IpoptAdapter : public Ipopt::TNLP {
  public:
+  /// cpu_deadline_s: the calling thread's CPU time (thread_cpu_time_s) at which the solve
+  /// stops; infinite: none.
   IpoptAdapter(const TrajectoryNlp& nlp, std::vector<double> x0, bool exact_hessian,
-               Multipliers warm)
+               Multipliers warm, double cpu_deadline_s)
       : nlp_(nlp),
         x0_(std::move(x0)),
         x_(x0_),
         exact_hessian_(exact_hessian),
-        warm_(std::move(warm)) {}
+        warm_(std::move(warm)),
+        cpu_deadline_s_(cpu_deadline_s) {}
 
   const std::vector<double>& x() const { return x_; }
   const Multipliers& multipliers() const { return final_; }
   Ipopt::SolverReturn status() const { return status_; }
+  bool out_of_time() const { return out_of_time_; }
 
   bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac, Ipopt::Index& nnz_h,
                     IndexStyleEnum& style) override {
@@ -99,6 +105,14 @@ class IpoptAdapter : public Ipopt::TNLP {
     }
     return true;
   }
+  // Ipopt calls this once an iteration (it runs in the calling thread): the solve's CPU limit.
+  bool intermediate_callback(Ipopt::AlgorithmMode, Ipopt::Index, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Number, Ipopt::Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    out_of_time_ = thread_cpu_time_s() > cpu_deadline_s_;
+    return !out_of_time_;
+  }
   void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x,
                          const Ipopt::Number* z_l, const Ipopt::Number* z_u, Ipopt::Index m,
                          const Ipopt::Number*, const Ipopt::Number* lambda, Ipopt::Number,
@@ -118,6 +132,8 @@ class IpoptAdapter : public Ipopt::TNLP {
   bool exact_hessian_ = true;
   Multipliers warm_;
   Multipliers final_;
+  double cpu_deadline_s_ = 0.0;
+  bool out_of_time_ = false;
 };
 
 TrajectoryStatus status_of(Ipopt::SolverReturn s) {
@@ -173,7 +189,12 @@ IpoptSolve solve_with_ipopt(const TrajectoryNlp& nlp, std::vector<double> x0,
   app->Options()->SetNumericValue("tol", options.tolerance);
   app->Options()->SetNumericValue("constr_viol_tol", options.constraint_tolerance);
   app->Options()->SetIntegerValue("max_iter", options.max_iterations);
-  if (max_cpu_time_s > 0.0) app->Options()->SetNumericValue("max_cpu_time", max_cpu_time_s);
+  // The CPU limit is the calling thread's (intermediate_callback), not Ipopt's max_cpu_time:
+  // that one counts the whole process, so the other planning thread, or another plan running
+  // in parallel (montecarlo), would spend this solve's time.
+  const double cpu_deadline_s = max_cpu_time_s > 0.0
+                                    ? thread_cpu_time_s() + max_cpu_time_s
+                                    : std::numeric_limits<double>::infinity();
   if (!warm.empty()) {
     app->Options()->SetStringValue("warm_start_init_point", "yes");
     app->Options()->SetNumericValue("mu_init", options.warm_start_mu);
@@ -184,14 +205,14 @@ IpoptSolve solve_with_ipopt(const TrajectoryNlp& nlp, std::vector<double> x0,
   // No options file: an ipopt.opt in the working directory must not change a plan.
   if (app->Initialize(std::string()) != Ipopt::Solve_Succeeded) return out;
   Ipopt::SmartPtr<IpoptAdapter> adapter =
-      new IpoptAdapter(nlp, std::move(x0), options.exact_hessian, warm);
+      new IpoptAdapter(nlp, std::move(x0), options.exact_hessian, warm, cpu_deadline_s);
   const auto t_solve = std::chrono::steady_clock::now();
   app->OptimizeTNLP(adapter);
   out.solve_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_solve).count();
   if (Ipopt::SmartPtr<Ipopt::SolveStatistics> stats = app->Statistics(); IsValid(stats))
     out.iterations = stats->IterationCount();
-  out.status = status_of(adapter->status());
+  out.status = adapter->out_of_time() ? TrajectoryStatus::kTimeLimit : status_of(adapter->status());
   out.x = adapter->x();
   out.multipliers = adapter->multipliers();
   return out;

@@ -32,7 +32,8 @@ struct IpoptSolve {
 /// Solves `nlp` from x0 (size num_variables). With non-empty `warm` (sizes of this NLP) Ipopt
 /// starts from those multipliers with barrier parameter options.warm_start_mu. Uses
 /// options.tolerance, constraint_tolerance, max_iterations, exact_hessian, lbfgs_history,
-/// adaptive_barrier, kkt_factorization, print_level; max_cpu_time_s > 0 bounds the solve.
+/// adaptive_barrier, kkt_factorization, print_level; max_cpu_time_s > 0 bounds the solve in CPU
+/// seconds of the calling thread (then kTimeLimit).
 IpoptSolve solve_with_ipopt(const TrajectoryNlp& nlp, std::vector<double> x0,
                             const Multipliers& warm, const TrajectoryOptimizerOptions& options,
                             double max_cpu_time_s);

@@ -8,6 +8,7 @@
 #include <map>
 #include <tuple>
 
+#include "core/cpu_clock.hpp"
 #include "planning/guess_deconfliction.hpp"
 #include "planning/time_parametrization.hpp"
 #include "planning/trajectory_ipopt.hpp"
@@ -60,12 +61,15 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   if (o.max_iterations < 1) return bad("max_iterations", "must be >= 1");
   if (o.iterations_per_uav < 0) return bad("iterations_per_uav", "must be >= 0");
   if (o.max_refinements < 0) return bad("max_refinements", "must be >= 0");
+  if (o.uav_max_refinements < 0) return bad("uav_max_refinements", "must be >= 0");
   if (!(o.time_budget_s > 0.0)) return bad("time_budget_s", "must be > 0");
   if (o.lbfgs_history < 1) return bad("lbfgs_history", "must be >= 1");
   if (o.joint_max_uavs < 1) return bad("joint_max_uavs", "must be >= 1");
   if (o.threads < 1) return bad("threads", "must be >= 1");
   if (!(o.coupling_distance_m > 0.0 && std::isfinite(o.coupling_distance_m)))
     return bad("coupling_distance_m", "must be > 0");
+  if (!(o.obstacle_prefilter_m >= 0.0 && std::isfinite(o.obstacle_prefilter_m)))
+    return bad("obstacle_prefilter_m", "must be finite and >= 0");
   if (!(o.validation_terrain_step_m > 0.0 && o.validation_terrain_step_m <= 5.0))
     return bad("validation_terrain_step_m", "must be in (0, 5] m");
   if (!(o.validation_separation_period_s > 0.0)) return bad("validation_separation_period_s", "must be > 0");
@@ -538,6 +542,9 @@ std::string_view to_string(TrajectoryStatus status) {
 TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
                                        const TrajectoryOptimizerOptions& options) {
   const auto t_start = Clock::now();
+  // The budget is CPU time (core/cpu_clock.hpp): a loaded machine gives the same plan.
+  CpuBudget budget(options.time_budget_s);
+  CpuMeter meter(budget);
   TrajectoryResult result;
   auto fail = [&](TrajectoryStatus status, std::string message) {
     result.status = status;
@@ -574,7 +581,8 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
   if (std::string e = fixed_points_too_close(team, limits.separation_m); !e.empty())
     return fail(TrajectoryStatus::kInfeasible, e);
   if (decompose)
-    return detail::optimize_in_priority_order(problem, options, team, std::move(result), t_start);
+    return detail::optimize_in_priority_order(problem, options, team, std::move(result), t_start,
+                                              budget);
   Candidates candidates = initial_candidates(team, options);
 
   NlpSetup setup;
@@ -620,10 +628,10 @@ TrajectoryResult optimize_trajectories(const TrajectoryProblem& problem,
       if (options.warm_start_refinements)
         warm = detail::warm_start(nlp, previous_bounds, previous_lambda);
     }
-    const double remaining_s = options.time_budget_s - seconds_since(t_start);
+    const double remaining_s = meter.remaining_s();
     if (remaining_s <= 0.0)
       return fail(TrajectoryStatus::kTimeLimit,
-                  fmt::format("time budget of {:.1f} s exhausted after {} solve(s)",
+                  fmt::format("time budget of {:.1f} s CPU exhausted after {} solve(s)",
                               options.time_budget_s, result.solves));
 
     const detail::IpoptSolve solve =

@@ -208,6 +208,12 @@ struct TrajectoryOptimizerOptions {
   /// > 0: the priority decomposition couples a UAV to the earlier ones whose guesses come this
   /// close at equal grid times (their references are its obstacles).
   double coupling_distance_m = 150.0;
+  /// The decomposition's obstacle rows (eq. 21 against fixed references): at every sample of a
+  /// step where the UAV's current point comes within this of an earlier UAV's reference, and
+  /// on every step that ever had rows (a refinement never drops one). Constant rows do not
+  /// couple UAVs, so this can be wider than separation_prefilter_m: with 50 m, 100 UAVs' solves
+  /// slid onto neighbours' paths where the guess had no rows, one step a round.
+  double obstacle_prefilter_m = 80.0;
   // Solver.
   double tolerance = 1e-5;             ///< Ipopt tol
   double constraint_tolerance = 1e-6;  ///< Ipopt constr_viol_tol (m or m²)
@@ -218,7 +224,12 @@ struct TrajectoryOptimizerOptions {
   /// 4 solves, where 500 stopped the first solve).
   int iterations_per_uav = 200;
   int max_refinements = 3;        ///< re-solves after a failed validation
-  double time_budget_s = 20.0;    ///< CPU time over all solves
+  /// The decomposition's re-solves of one UAV (its NLP is small, a round cheap): each round
+  /// may meet another of the fixed references its last solve moved next to (100 UAVs: up to 6).
+  int uav_max_refinements = 8;
+  /// CPU seconds of the optimizing threads (core/cpu_clock.hpp, CpuBudget): setup, solves and
+  /// checks; the same plan on a loaded machine. Running out is kTimeLimit, never another plan.
+  double time_budget_s = 20.0;
   bool adaptive_barrier = false;  ///< Ipopt mu_strategy adaptive (else monotone: measured
                                   ///< fewer, cheaper iterations on these problems)
   bool exact_hessian = true;      ///< false: Ipopt's limited-memory quasi-Newton

@@ -14,7 +14,9 @@
 #include "core/random.hpp"
 #include "mission/flight_recorder.hpp"
 #include "mission/truth_world.hpp"
+#include "mission/stage_inputs.hpp"
 #include "swarm/in_process_transport.hpp"
+#include "swarm/prediction_reach.hpp"
 
 namespace ridgeline::sim {
 namespace {
@@ -47,11 +49,6 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
   const int n = static_cast<int>(scenario.uavs.size());
 
   mission::TruthWorld world(scenario, terrain);
-  swarm::InProcessTransport transport(
-      n,
-      swarm::LinkModel{scenario.simulation.link_latency_s, scenario.simulation.link_jitter_s,
-                       scenario.simulation.link_drop_rate},
-      derive_seed(scenario.seed, kTransportStream));
   // The plan names its UAVs; a UAV the allocation left without targets has no plan entry and
   // stays idle: its agent finishes at once and the UAV holds at its start (still broadcasting,
   // so the others keep their distance).
@@ -65,6 +62,20 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
       throw InputError(fmt::format("plan.uavs.{}.reference", up.name), "is missing");
     plans[static_cast<std::size_t>(it - scenario.uavs.begin())] = up;
   }
+  // Predictions go at once only to the agents within reach (in_process_transport.hpp): the
+  // proposed agents' reach (swarm/prediction_reach.hpp). The baselines get every broadcast.
+  const swarm::LinkModel link{scenario.simulation.link_latency_s,
+                              scenario.simulation.link_jitter_s, scenario.simulation.link_drop_rate};
+  swarm::PredictionReach reach;
+  if (options.method == Method::kProposed) {
+    std::vector<swarm::AgentOptions> agent_options;
+    for (int i = 0; i < n; ++i)
+      agent_options.push_back(
+          mission::make_agent_options(scenario, i, plans[static_cast<std::size_t>(i)]));
+    reach = swarm::prediction_reach(agent_options, scenario.safety, link,
+                                    1.0 / scenario.simulation.message_rate_hz);
+  }
+  swarm::InProcessTransport transport(n, link, derive_seed(scenario.seed, kTransportStream), reach);
   std::vector<std::unique_ptr<swarm::UavAgent>> agents;
   for (int i = 0; i < n; ++i) {
     const planning::UavPlan& up = plans[static_cast<std::size_t>(i)];

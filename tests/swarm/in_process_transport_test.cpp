@@ -113,5 +113,74 @@ TEST(Messages, MalformedMessagesAreRejectedWithAReason) {
   EXPECT_STREQ(message_type_name(s), "StateReport");
 }
 
+Message prediction_at(int uav, double stamp, const Vec3& position) {
+  PredictedTrajectory p;
+  p.uav = uav;
+  p.stamp_s = stamp;
+  p.positions_m = {position, position + Vec3(1.0, 0.0, 0.0)};
+  return p;
+}
+
+// Predictions from sender 0 that `receiver` got, up to now.
+int predictions_from_0(InProcessTransport& t, int receiver, double now_s) {
+  std::vector<Envelope> got;
+  t.receive(receiver, now_s, got);
+  int count = 0;
+  for (const Envelope& e : got)
+    count += e.sender == 0 && std::holds_alternative<PredictedTrajectory>(e.message) ? 1 : 0;
+  return count;
+}
+
+TEST(InProcessTransport, PredictionsReachNearAgentsEveryTickAndFarOnesOnlyEveryFarPeriod) {
+  // 0 and 1 are 50 m apart, 2 is 1 km away; reach 100 m, far copies every 1 s.
+  InProcessTransport t(3, LinkModel{}, 1, PredictionReach{100.0, 1.0});
+  const std::vector<Vec3> at = {{0.0, 0.0, 100.0}, {50.0, 0.0, 100.0}, {1000.0, 0.0, 100.0}};
+  for (int tick = 0; tick <= 10; ++tick)  // 0.1 s apart: 0 s is sender 0's far copy
+    for (int i = 0; i < 3; ++i) t.publish(i, 0.1 * tick, prediction_at(i, 0.1 * tick, at[i]));
+  EXPECT_EQ(predictions_from_0(t, 1, 0.95), 10);  // every tick up to 0.9 s
+  EXPECT_EQ(predictions_from_0(t, 2, 0.95), 1);   // only the far copy at 0 s
+  EXPECT_EQ(predictions_from_0(t, 2, 1.05), 1);   // the next one at 1 s
+  EXPECT_EQ(predictions_from_0(t, 1, 1.05), 1);
+  // A threat report still reaches everyone.
+  t.publish(0, 1.1, threat_from(0, 3, 1.1));
+  std::vector<Envelope> got;
+  t.receive(2, 1.1, got);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_TRUE(std::holds_alternative<ThreatReport>(got[0].message));
+  // Once 2 comes within reach it gets every tick.
+  for (int tick = 12; tick <= 15; ++tick)
+    for (int i = 0; i < 3; ++i)
+      t.publish(i, 0.1 * tick, prediction_at(i, 0.1 * tick, i == 2 ? Vec3(20.0, 60.0, 100.0) : at[i]));
+  EXPECT_EQ(predictions_from_0(t, 2, 1.55), 3);  // 1.3, 1.4, 1.5 s (1.2 s: the grid's last)
+}
+
+TEST(InProcessTransport, FanOutOfASpreadTeamIsTheFarCopiesNotEveryTick) {
+  // N agents 1 km apart on a line, reach 300 m: nobody is in anyone's reach, so after the
+  // first tick (no positions yet: to everyone) a sender's copies are its far ones, every 0.5 s.
+  auto copies_in_one_second = [](int n) {
+    InProcessTransport t(n, LinkModel{}, 1, PredictionReach{300.0, 0.5});
+    auto tick = [&](int k) {
+      for (int i = 0; i < n; ++i)
+        t.publish(i, 0.01 * k, prediction_at(i, 0.01 * k, Vec3(1000.0 * i, 0.0, 100.0)));
+    };
+    tick(0);
+    const std::uint64_t first = t.stats().sent;
+    for (int k = 1; k <= 100; ++k) tick(k);
+    return t.stats().sent - first;
+  };
+  for (int n : {20, 80}) {
+    const std::uint64_t pairs = static_cast<std::uint64_t>(n) * (n - 1);
+    const std::uint64_t copies = copies_in_one_second(n);
+    EXPECT_GE(copies, pairs);      // every sender reached everyone at least once
+    EXPECT_LE(copies, 3 * pairs);  // not 100 × pairs, as without a reach
+  }
+  // Without a reach every publish is N − 1 copies.
+  InProcessTransport all(20, LinkModel{}, 1);
+  all.publish(0, 0.0, prediction_at(0, 0.0, Vec3::Zero()));
+  EXPECT_EQ(all.stats().sent, 19u);
+  EXPECT_THROW(InProcessTransport(2, LinkModel{}, 1, PredictionReach{0.0, 1.0}), InputError);
+  EXPECT_THROW(InProcessTransport(2, LinkModel{}, 1, PredictionReach{10.0, 0.0}), InputError);
+}
+
 }  // namespace
 }  // namespace ridgeline::swarm
