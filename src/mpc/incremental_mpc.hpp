@@ -74,6 +74,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/simd_clones.hpp"
 #include "core/types.hpp"
 #include "qp/qp_solver.hpp"
 
@@ -206,9 +207,13 @@ class IncrementalMpc {
   std::string_view check_data() const;
   void collect_plant_nonzeros();
   void group_rows_by_span();
-  void build_cost();
   void assemble_qp();
-  void assemble_soft_rows();
+  // The hot loops, compiled for AVX2 too (core/simd_clones.hpp). They stay private: GCC
+  // emits the dispatcher of a cloned function in each file that calls it, and only
+  // incremental_mpc.cpp holds the clones.
+  RIDGELINE_SIMD_CLONES void forward_pass();
+  RIDGELINE_SIMD_CLONES void build_cost();
+  RIDGELINE_SIMD_CLONES void assemble_soft_rows();
   void extract_solution(const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
 
