@@ -74,6 +74,13 @@ void combine_row(double* __restrict dst, int n, const double* __restrict base, c
   }
 }
 
+// The number of nonzero entries of x[0..n) (an integer sum, which vectorizes).
+RIDGELINE_SIMD_CLONES int count_nonzeros(const double* x, int n) {
+  int count = 0;
+  for (int i = 0; i < n; ++i) count += x[i] != 0.0 ? 1 : 0;
+  return count;
+}
+
 }  // namespace
 
 void IncrementalMpcData::set_time_invariant(const MatX& A_, const MatX& B_, const MatX& C_,
@@ -305,21 +312,39 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // the forward pass and the solution's simulation both multiply by every A_j: listing the
   // nonzeros once lets both skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
-  std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
   int n = 0;
+  bool same = true;  // every A_j so far has the nonzero positions listed by the last call
   // Listed by row (then column): the forward pass sums each row of Γ_j in one loop, and a
   // row's terms keep the order of the column-major listing this replaced (column ascending).
   for (int j = 0; j < np_; ++j) {
+    const int old_begin = a_begin_[j], old_end = a_begin_[j + 1];
     a_begin_[j] = n;
-    const MatX& A = d.A[j];
-    for (int k = 0; k < ns_; ++k) {
-      for (int l = 0; l < ns_; ++l) {
-        if (A(k, l) != 0.0) {
-          a_entries_[n++] = Entry{k, l, A(k, l)};
-          a_pattern_[k * ns_ + l] = 1;
-        }
+    const double* A = d.A[j].data();  // column-major n_s×n_s
+    // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
+    // time, and nonzero at every listed position, is the same set; only the values are read.
+    if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
+      bool listed = true;
+      for (int e = old_begin; e < old_end; ++e) {
+        Entry& a = a_entries_[e];
+        a.value = A[a.col * ns_ + a.row];
+        listed = listed && a.value != 0.0;
+      }
+      if (listed) {
+        n = old_end;
+        continue;
       }
     }
+    same = false;  // this step and every later one are listed anew
+    for (int k = 0; k < ns_; ++k) {
+      for (int l = 0; l < ns_; ++l) {
+        const double v = A[l * ns_ + k];
+        if (v != 0.0) a_entries_[n++] = Entry{k, l, v};
+      }
+    }
+  }
+  if (!same) {
+    std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
+    for (int e = 0; e < n; ++e) a_pattern_[a_entries_[e].row * ns_ + a_entries_[e].col] = 1;
   }
   a_begin_[np_] = n;
   c_count_ = 0;
