@@ -661,28 +661,56 @@ void IncrementalMpc::assemble_soft_rows() {
   // Soft rows: aᵀ(Y_free,j + Φ_j ΔU) + σ_g ≥ b  ⇔  aᵀΦ_j ΔU + σ_g ≥ b − aᵀY_free,j. Φ_j is
   // zero right of the moves started by step j and outside the reaches of the outputs a reads.
   resize_soft_rows(d.soft_row_count);
-  double* row = soft_row_.data();  // in Φ's column order, summed contiguously
+  const Eigen::Index stride = qp_.G.outerStride();
   for (int r = 0; r < soft_rows_in_qp_; ++r) {
     const int g_row = soft_rows_begin_ + r;
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
-      // Φ_j's entries outside a reach or right of the moves started by step j are exact
-      // zeros, so each output's span can be summed whole.
-      std::fill_n(row, nU, 0.0);
       double bound = d.soft_bound[r];
+      // The rows of Φ_j the soft row reads (a_k ≠ 0). Φ_j's entries outside a reach or right
+      // of the moves started by step j are exact zeros, so every entry of the soft row can sum
+      // all of them: aᵀΦ_j(:, p) for each column p, in output order, stored once, in the QP's
+      // column order (move, then input) of the column-major G, the slack columns last.
+      constexpr int kTerms = 4;
+      const double* rows[kTerms] = {};
+      double coef[kTerms] = {};
+      int terms = 0;
       for (int k = 0; k < ny_; ++k) {
         const double a = d.soft_normal(k, r);
         if (a == 0.0) continue;
-        const int lo = output_span_lo_[k];
-        axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
         bound -= a * Yfree_[j * ny_ + k];
+        if (terms < kTerms) rows[terms] = Phi_.row(j * ny_ + k).data();
+        if (terms < kTerms) coef[terms] = a;
+        ++terms;
       }
-      // G is column-major: each entry of the row is stored once, in the QP's order (move,
-      // then input), the slack columns last.
       double* g_out = &qp_.G(g_row, 0);
-      const Eigen::Index stride = qp_.G.outerStride();
-      for (int i = 0; i < nc_; ++i) {
-        for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+      if (terms <= kTerms) {
+        for (int i = 0; i < nc_; ++i) {
+          for (int c = 0; c < nu_; ++c) {
+            const int p = c * nc_ + i;
+            double v = 0.0;
+            if (terms == 3) {  // the UAV's threat and terrain rows: one term an output
+              v += coef[0] * rows[0][p];
+              v += coef[1] * rows[1][p];
+              v += coef[2] * rows[2][p];
+            } else {
+              for (int t = 0; t < terms; ++t) v += coef[t] * rows[t][p];
+            }
+            g_out[(i * nu_ + c) * stride] = v;
+          }
+        }
+      } else {
+        double* row = soft_row_.data();  // in Φ's column order, summed contiguously
+        std::fill_n(row, nU, 0.0);
+        for (int k = 0; k < ny_; ++k) {
+          const double a = d.soft_normal(k, r);
+          if (a == 0.0) continue;
+          const int lo = output_span_lo_[k];
+          axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
+        }
+        for (int i = 0; i < nc_; ++i) {
+          for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+        }
       }
       for (int g = 0; g < ng_; ++g) g_out[(nU + g) * stride] = 0.0;
       g_out[(nU + d.soft_group[r]) * stride] = 1.0;
