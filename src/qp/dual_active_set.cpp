@@ -110,6 +110,31 @@ RIDGELINE_SIMD_CLONES void product_columns(const Eigen::MatrixXd& G, int m,
   }
 }
 
+// J[:, q..n) ← J[:, q..n)·(I − τvvᵀ) with v = [1; essential] (Eigen's
+// applyHouseholderOnTheRight, whose rank-one update is SSE2): w = Jv, then J −= τwvᵀ, both
+// column by column as contiguous axpys. w has J.rows() entries of workspace.
+RIDGELINE_SIMD_CLONES void apply_householder_right(Eigen::MatrixXd& J, int q,
+                                                   const double* essential, double tau,
+                                                   double* __restrict w) {
+  if (tau == 0.0) return;
+  const Eigen::Index n = J.rows();
+  const Eigen::Index cols = J.cols() - q;
+  std::fill_n(w, n, 0.0);
+  for (Eigen::Index c = 1; c < cols; ++c) {
+    const double a = essential[c - 1];
+    const double* __restrict col = J.col(q + c).data();
+    for (Eigen::Index i = 0; i < n; ++i) w[i] += a * col[i];
+  }
+  double* __restrict first = J.col(q).data();
+  for (Eigen::Index i = 0; i < n; ++i) w[i] += first[i];
+  for (Eigen::Index i = 0; i < n; ++i) first[i] -= tau * w[i];
+  for (Eigen::Index c = 1; c < cols; ++c) {
+    const double a = tau * essential[c - 1];
+    double* __restrict col = J.col(q + c).data();
+    for (Eigen::Index i = 0; i < n; ++i) col[i] -= a * w[i];
+  }
+}
+
 void rotate_columns(Eigen::MatrixXd& J, int a, int b, const Rotation& g) {
   double* ca = J.col(a).data();
   double* cb = J.col(b).data();
@@ -242,9 +267,8 @@ bool DualActiveSet::add(Side c) {
   if (!(d2_norm > kDependence * d_.norm())) return false;
   if (q + 1 < n_) {
     double tau = 0.0, beta = 0.0;
-    auto essential = d_.segment(q + 1, n_ - q - 1);
     d_.tail(n_ - q).makeHouseholderInPlace(tau, beta);
-    J_.rightCols(n_ - q).applyHouseholderOnTheRight(essential, tau, step_.data());
+    apply_householder_right(J_, q, d_.data() + q + 1, tau, step_.data());
     d_[q] = beta;
   }
   R_.col(q).head(q + 1) = d_.head(q + 1);
@@ -454,9 +478,11 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   }
   if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
   count_ = 0;
-  // J = L⁻ᵀ: solve Lᵀ J = I.
-  J_.setIdentity();
-  L_.triangularView<Eigen::Lower>().transpose().solveInPlace(J_);
+  // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the
+  // identity's leading zeros are skipped; Y_ is free once the fast path has failed).
+  Y_.setIdentity();
+  solve_lower_columns(L_, Y_, n_);
+  J_ = Y_.transpose();
   R_.setZero();
 
   // Equalities first (always in the working set), then the previous inequalities.
