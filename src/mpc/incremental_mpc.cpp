@@ -37,6 +37,50 @@ void axpy(double* __restrict dst, int n, double a, const double* __restrict src)
   for (int i = 0; i < n; ++i) dst[i] += a * src[i];
 }
 
+// dst[0..n) = base[0..n) + Σ_t a_t·src_t[0..n) over the terms of one row (entries with the same
+// row, sources row `col` of a row-major matrix at `src`, leading dimension ld), summed in the
+// terms' order; base null means zero. The common counts keep the partial sums in registers, so
+// each entry of dst is stored once.
+template <typename Term>
+void combine_row(double* __restrict dst, int n, const double* __restrict base, const Term* terms,
+                 int count, const double* __restrict src, Eigen::Index ld) {
+  const auto row = [&](int t) { return src + terms[t].col * ld; };
+  if (base == nullptr && count == 1) {
+    const double a0 = terms[0].value;
+    const double* __restrict s0 = row(0);
+    for (int i = 0; i < n; ++i) dst[i] = a0 * s0[i];
+  } else if (base == nullptr && count == 2) {
+    const double a0 = terms[0].value, a1 = terms[1].value;
+    const double* __restrict s0 = row(0);
+    const double* __restrict s1 = row(1);
+    for (int i = 0; i < n; ++i) dst[i] = a0 * s0[i] + a1 * s1[i];
+  } else if (base == nullptr && count == 3) {
+    const double a0 = terms[0].value, a1 = terms[1].value, a2 = terms[2].value;
+    const double* __restrict s0 = row(0);
+    const double* __restrict s1 = row(1);
+    const double* __restrict s2 = row(2);
+    for (int i = 0; i < n; ++i) dst[i] = a0 * s0[i] + a1 * s1[i] + a2 * s2[i];
+  } else if (base != nullptr && count == 1) {
+    const double a0 = terms[0].value;
+    const double* __restrict s0 = row(0);
+    for (int i = 0; i < n; ++i) dst[i] = base[i] + a0 * s0[i];
+  } else {
+    if (base == nullptr) {
+      std::fill_n(dst, n, 0.0);
+    } else {
+      std::copy_n(base, n, dst);
+    }
+    for (int t = 0; t < count; ++t) axpy(dst, n, terms[t].value, row(t));
+  }
+}
+
+// The number of nonzero entries of x[0..n) (an integer sum, which vectorizes).
+RIDGELINE_SIMD_CLONES int count_nonzeros(const double* x, int n) {
+  int count = 0;
+  for (int i = 0; i < n; ++i) count += x[i] != 0.0 ? 1 : 0;
+  return count;
+}
+
 }  // namespace
 
 void IncrementalMpcData::set_time_invariant(const MatX& A_, const MatX& B_, const MatX& C_,
@@ -268,24 +312,44 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // the forward pass and the solution's simulation both multiply by every A_j: listing the
   // nonzeros once lets both skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
-  std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
   int n = 0;
+  bool same = true;  // every A_j so far has the nonzero positions listed by the last call
+  // Listed by row (then column): the forward pass sums each row of Γ_j in one loop, and a
+  // row's terms keep the order of the column-major listing this replaced (column ascending).
   for (int j = 0; j < np_; ++j) {
+    const int old_begin = a_begin_[j], old_end = a_begin_[j + 1];
     a_begin_[j] = n;
-    const MatX& A = d.A[j];
-    for (int l = 0; l < ns_; ++l) {
-      for (int k = 0; k < ns_; ++k) {
-        if (A(k, l) != 0.0) {
-          a_entries_[n++] = Entry{k, l, A(k, l)};
-          a_pattern_[k * ns_ + l] = 1;
-        }
+    const double* A = d.A[j].data();  // column-major n_s×n_s
+    // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
+    // time, and nonzero at every listed position, is the same set; only the values are read.
+    if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
+      bool listed = true;
+      for (int e = old_begin; e < old_end; ++e) {
+        Entry& a = a_entries_[e];
+        a.value = A[a.col * ns_ + a.row];
+        listed = listed && a.value != 0.0;
+      }
+      if (listed) {
+        n = old_end;
+        continue;
+      }
+    }
+    same = false;  // this step and every later one are listed anew
+    for (int k = 0; k < ns_; ++k) {
+      for (int l = 0; l < ns_; ++l) {
+        const double v = A[l * ns_ + k];
+        if (v != 0.0) a_entries_[n++] = Entry{k, l, v};
       }
     }
   }
+  if (!same) {
+    std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
+    for (int e = 0; e < n; ++e) a_pattern_[a_entries_[e].row * ns_ + a_entries_[e].col] = 1;
+  }
   a_begin_[np_] = n;
   c_count_ = 0;
-  for (int l = 0; l < ns_; ++l) {
-    for (int k = 0; k < ny_; ++k) {
+  for (int k = 0; k < ny_; ++k) {
+    for (int l = 0; l < ns_; ++l) {
       if (d.C(k, l) != 0.0) c_entries_[c_count_++] = Entry{k, l, d.C(k, l)};
     }
   }
@@ -348,8 +412,12 @@ void IncrementalMpc::group_rows_by_span() {
 }
 
 void IncrementalMpc::build_prediction() {
-  const IncrementalMpcData& d = data_;
   collect_plant_nonzeros();
+  forward_pass();
+}
+
+void IncrementalMpc::forward_pass() {
+  const IncrementalMpcData& d = data_;
   // One forward pass (eq. 7–9) over the stage matrices. Γ holds ∂Δs_{j+1}/∂ΔU; the free
   // increment ds and output y are the same recursion with every move zero:
   //   Γ_j = A_j Γ_{j−1} + [B_j in the columns of move j],   Φ_j = Φ_{j−1} + C Γ_j,
@@ -380,19 +448,27 @@ void IncrementalMpc::build_prediction() {
     const int active = std::min(j, nc_);  // moves started before step j (per input)
     const int used = std::min(j + 1, nc_);  // ... and by step j
     w_ = d.state_offset.col(j);
-    if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+    // A forecast increment is usually zero after the first step (a held measurement): E·0
+    // would add exact zeros.
+    if (nd_ > 0 && !d.disturbance_delta.col(j).isZero(0.0)) {
+      w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+    }
     dsn_ = w_;
     if (j >= nc_) {
+      // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
+      // span lies inside it (reaches are closed over A), and its entries outside its own span
+      // are exact zeros.
+      const Eigen::Index ld = G->outerStride();
+      int e = a_begin_[j];
+      const int end = a_begin_[j + 1];
       for (int k = 0; k < ns_; ++k) {
-        double* dst = Gn->row(k).data();
-        std::fill(dst + state_span_lo_[k], dst + state_span_hi_[k], 0.0);
-      }
-      for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
-        const Entry a = a_entries_[e];  // a copy: stores through dst cannot change it
-        dsn_[a.row] += a.value * ds_[a.col];
-        const int lo = state_span_lo_[a.col];
-        axpy(Gn->row(a.row).data() + lo, state_span_hi_[a.col] - lo, a.value,
-             G->row(a.col).data() + lo);
+        const int first = e;
+        for (; e < end && a_entries_[e].row == k; ++e) {
+          dsn_[k] += a_entries_[e].value * ds_[a_entries_[e].col];
+        }
+        const int lo = state_span_lo_[k];
+        combine_row(Gn->row(k).data() + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first],
+                    e - first, G->data() + lo, ld);
       }
     } else {
       for (int k = 0; k < ns_; ++k) {
@@ -421,18 +497,27 @@ void IncrementalMpc::build_prediction() {
     }
     std::swap(G, Gn);
     std::swap(ds_, dsn_);
-    if (j >= nc_) {
-      for (int k = 0; k < ny_; ++k) {
-        const int lo = output_span_lo_[k], hi = output_span_hi_[k];
-        std::copy(Phi_.row((j - 1) * ny_ + k).data() + lo, Phi_.row((j - 1) * ny_ + k).data() + hi,
-                  Phi_.row(j * ny_ + k).data() + lo);
+    // y_j = y_{j−1} + C ds_j row by row in scalars: ds_ was just written entry by entry, and a
+    // vector load of it would wait for those stores to retire instead of forwarding them.
+    for (int e = 0, k = 0; k < ny_; ++k) {
+      double v = y_[k];
+      for (; e < c_count_ && c_entries_[e].row == k; ++e) {
+        v += c_entries_[e].value * ds_[c_entries_[e].col];
       }
-      for (int e = 0; e < c_count_; ++e) {
-        const Entry cz = c_entries_[e];
-        y_[cz.row] += cz.value * ds_[cz.col];
-        const int lo = state_span_lo_[cz.col];
-        axpy(Phi_.row(j * ny_ + cz.row).data() + lo, state_span_hi_[cz.col] - lo, cz.value,
-             G->row(cz.col).data() + lo);
+      y_[k] = v;
+      Yfree_[j * ny_ + k] = v;
+    }
+    if (j >= nc_) {
+      // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
+      const Eigen::Index ld = G->outerStride();
+      int e = 0;
+      for (int k = 0; k < ny_; ++k) {
+        const int first = e;
+        while (e < c_count_ && c_entries_[e].row == k) ++e;
+        const int lo = output_span_lo_[k];
+        combine_row(Phi_.row(j * ny_ + k).data() + lo, output_span_hi_[k] - lo,
+                    Phi_.row((j - 1) * ny_ + k).data() + lo, &c_entries_[first], e - first,
+                    G->data() + lo, ld);
       }
     } else {
       for (int k = 0; k < ny_; ++k) {
@@ -448,7 +533,6 @@ void IncrementalMpc::build_prediction() {
       }
       for (int e = 0; e < c_count_; ++e) {
         const Entry cz = c_entries_[e];
-        y_[cz.row] += cz.value * ds_[cz.col];
         const std::uint64_t reach = state_reach_[cz.col];
         for (int c = 0; c < nu_; ++c) {
           if (((reach >> c) & 1U) == 0) continue;
@@ -458,7 +542,6 @@ void IncrementalMpc::build_prediction() {
         }
       }
     }
-    Yfree_.segment(j * ny_, ny_) = y_;
   }
 }
 
@@ -578,28 +661,56 @@ void IncrementalMpc::assemble_soft_rows() {
   // Soft rows: aᵀ(Y_free,j + Φ_j ΔU) + σ_g ≥ b  ⇔  aᵀΦ_j ΔU + σ_g ≥ b − aᵀY_free,j. Φ_j is
   // zero right of the moves started by step j and outside the reaches of the outputs a reads.
   resize_soft_rows(d.soft_row_count);
-  double* row = soft_row_.data();  // in Φ's column order, summed contiguously
+  const Eigen::Index stride = qp_.G.outerStride();
   for (int r = 0; r < soft_rows_in_qp_; ++r) {
     const int g_row = soft_rows_begin_ + r;
     if (r < d.soft_row_count) {
       const int j = d.soft_step[r];
-      // Φ_j's entries outside a reach or right of the moves started by step j are exact
-      // zeros, so each output's span can be summed whole.
-      std::fill_n(row, nU, 0.0);
       double bound = d.soft_bound[r];
+      // The rows of Φ_j the soft row reads (a_k ≠ 0). Φ_j's entries outside a reach or right
+      // of the moves started by step j are exact zeros, so every entry of the soft row can sum
+      // all of them: aᵀΦ_j(:, p) for each column p, in output order, stored once, in the QP's
+      // column order (move, then input) of the column-major G, the slack columns last.
+      constexpr int kTerms = 4;
+      const double* rows[kTerms] = {};
+      double coef[kTerms] = {};
+      int terms = 0;
       for (int k = 0; k < ny_; ++k) {
         const double a = d.soft_normal(k, r);
         if (a == 0.0) continue;
-        const int lo = output_span_lo_[k];
-        axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
         bound -= a * Yfree_[j * ny_ + k];
+        if (terms < kTerms) rows[terms] = Phi_.row(j * ny_ + k).data();
+        if (terms < kTerms) coef[terms] = a;
+        ++terms;
       }
-      // G is column-major: each entry of the row is stored once, in the QP's order (move,
-      // then input), the slack columns last.
       double* g_out = &qp_.G(g_row, 0);
-      const Eigen::Index stride = qp_.G.outerStride();
-      for (int i = 0; i < nc_; ++i) {
-        for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+      if (terms <= kTerms) {
+        for (int i = 0; i < nc_; ++i) {
+          for (int c = 0; c < nu_; ++c) {
+            const int p = c * nc_ + i;
+            double v = 0.0;
+            if (terms == 3) {  // the UAV's threat and terrain rows: one term an output
+              v += coef[0] * rows[0][p];
+              v += coef[1] * rows[1][p];
+              v += coef[2] * rows[2][p];
+            } else {
+              for (int t = 0; t < terms; ++t) v += coef[t] * rows[t][p];
+            }
+            g_out[(i * nu_ + c) * stride] = v;
+          }
+        }
+      } else {
+        double* row = soft_row_.data();  // in Φ's column order, summed contiguously
+        std::fill_n(row, nU, 0.0);
+        for (int k = 0; k < ny_; ++k) {
+          const double a = d.soft_normal(k, r);
+          if (a == 0.0) continue;
+          const int lo = output_span_lo_[k];
+          axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
+        }
+        for (int i = 0; i < nc_; ++i) {
+          for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
+        }
       }
       for (int g = 0; g < ng_; ++g) g_out[(nU + g) * stride] = 0.0;
       g_out[(nU + d.soft_group[r]) * stride] = 1.0;
@@ -640,23 +751,30 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   double cost = 0.0;
   for (int j = 0; j < np_; ++j) {
     w_ = d.state_offset.col(j);
-    if (nd_ > 0) w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+    if (nd_ > 0 && !d.disturbance_delta.col(j).isZero(0.0)) {
+      w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+    }
     if (j < nc_) w_.noalias() += d.B[j].lazyProduct(result_.moves.segment(j * nu_, nu_));
-    dsn_ = w_;
-    for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
-      const Entry& a = a_entries_[e];
-      dsn_[a.row] += a.value * ds_[a.col];
+    // Row by row in scalars (the entries are listed by row): each value is used right where
+    // it is computed, never reloaded as a vector from scalar stores (a store-forwarding stall).
+    const int end = a_begin_[j + 1];
+    for (int e = a_begin_[j], k = 0; k < ns_; ++k) {
+      double v = w_[k];
+      for (; e < end && a_entries_[e].row == k; ++e) {
+        v += a_entries_[e].value * ds_[a_entries_[e].col];
+      }
+      dsn_[k] = v;
+      s[k] = s_prev[k] + v;
     }
     std::swap(ds_, dsn_);
-    for (int k = 0; k < ns_; ++k) s[k] = s_prev[k] + ds_[k];
-    for (int k = 0; k < ny_; ++k) y[k] = y_prev[k];
-    for (int e = 0; e < c_count_; ++e) {
-      const Entry& cz = c_entries_[e];
-      y[cz.row] += cz.value * ds_[cz.col];
-    }
-    for (int k = 0; k < ny_; ++k) {
-      const double e = d.reference(k, j) - y[k];
-      cost += qdiag_[j * ny_ + k] * e * e;
+    for (int e = 0, k = 0; k < ny_; ++k) {
+      double v = y_prev[k];
+      for (; e < c_count_ && c_entries_[e].row == k; ++e) {
+        v += c_entries_[e].value * ds_[c_entries_[e].col];
+      }
+      y[k] = v;
+      const double err = d.reference(k, j) - v;
+      cost += qdiag_[j * ny_ + k] * err * err;
     }
     s_prev = s;
     y_prev = y;

@@ -56,8 +56,9 @@
 //    is the same pass on one vector, so F and Y_w are never formed.
 //  - The reach of a state or output (the inputs whose moves change it, from the nonzero
 //    patterns of B, A and C) bounds the columns a row of Γ or Φ can have: for the UAV, x and y
-//    are reached by the speed and turn commands, z by the climb command only. Row updates, the
-//    soft rows aᵀΦ_j and the cost sums skip the other inputs' columns.
+//    are reached by the speed and turn commands, z by the climb command only. Row updates and
+//    the cost sums skip the other inputs' columns; a soft row aᵀΦ_j sums whole columns of Φ_j,
+//    whose entries outside the reaches are exact zeros (see assemble_soft_rows).
 //  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs over each row's span (from
 //    its first to its last reached input's columns; see build_prediction), four rows at a time.
 //  - The input-limit rows, the slack terms and the QP's layout are written once at
@@ -74,6 +75,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/simd_clones.hpp"
 #include "core/types.hpp"
 #include "qp/qp_solver.hpp"
 
@@ -206,9 +208,13 @@ class IncrementalMpc {
   std::string_view check_data() const;
   void collect_plant_nonzeros();
   void group_rows_by_span();
-  void build_cost();
   void assemble_qp();
-  void assemble_soft_rows();
+  // The hot loops, compiled for AVX2 too (core/simd_clones.hpp). They stay private: GCC
+  // emits the dispatcher of a cloned function in each file that calls it, and only
+  // incremental_mpc.cpp holds the clones.
+  RIDGELINE_SIMD_CLONES void forward_pass();
+  RIDGELINE_SIMD_CLONES void build_cost();
+  RIDGELINE_SIMD_CLONES void assemble_soft_rows();
   void extract_solution(const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
 

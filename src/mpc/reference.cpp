@@ -101,8 +101,19 @@ SampledReference SampledReference::from_positions(const std::vector<double>& tim
 ReferencePoint SampledReference::at(double t_s) const {
   if (t_s <= times_s_.front()) return extrapolate(points_.front(), t_s - times_s_.front());
   if (t_s >= times_s_.back()) return extrapolate(points_.back(), t_s - times_s_.back());
-  const auto it = std::upper_bound(times_s_.begin(), times_s_.end(), t_s);
-  const std::size_t i = static_cast<std::size_t>(it - times_s_.begin()) - 1;
+  // The sample i with times[i] ≤ t < times[i + 1] (times increase strictly; front < t < back
+  // here). Plans are sampled at about even steps, so the guess from the mean spacing is right or
+  // a step off; a few steps of walking confirm it, and a binary search takes over when they do
+  // not (the tracker asks 41 times a step, and the search's unpredictable branches showed).
+  const std::size_t last = times_s_.size() - 1;
+  const double where = (t_s - times_s_.front()) / (times_s_.back() - times_s_.front());
+  std::size_t i = std::min(static_cast<std::size_t>(where * static_cast<double>(last)), last - 1);
+  for (int walk = 0; walk < 4 && times_s_[i] > t_s; ++walk) --i;  // times[0] < t: stays ≥ 0
+  for (int walk = 0; walk < 4 && times_s_[i + 1] <= t_s; ++walk) ++i;  // times[last] > t
+  if (times_s_[i] > t_s || times_s_[i + 1] <= t_s) {
+    const auto it = std::upper_bound(times_s_.begin(), times_s_.end(), t_s);
+    i = static_cast<std::size_t>(it - times_s_.begin()) - 1;
+  }
   const double a = (t_s - times_s_[i]) / (times_s_[i + 1] - times_s_[i]);
   const ReferencePoint& p = points_[i];
   const ReferencePoint& q = points_[i + 1];

@@ -6,6 +6,8 @@
 
 #include <Eigen/Householder>
 
+#include "core/simd_clones.hpp"
+
 namespace ridgeline::qp {
 
 namespace {
@@ -44,16 +46,29 @@ struct Rotation {
 };
 
 // H = LLᵀ, reading H's lower triangle; false unless every pivot is positive. Left-looking
-// by columns: column j of L is H's minus the earlier columns k < j weighted by L(j, k), each
-// a contiguous axpy. For the MPC's n ≈ 30 this runs in about half the instructions of
+// by columns: column j of L is H's minus the earlier columns k < j weighted by L(j, k),
+// contiguous axpys. For the MPC's n ≈ 30 this runs in about half the instructions of
 // Eigen's blocked LLT, whose panel products are sized for larger matrices.
-bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
+RIDGELINE_SIMD_CLONES bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
   const Eigen::Index n = H.rows();
   for (Eigen::Index j = 0; j < n; ++j) {
     double* __restrict col = L.col(j).data();
     const double* h = H.col(j).data();
     for (Eigen::Index i = j; i < n; ++i) col[i] = h[i];
-    for (Eigen::Index k = 0; k < j; ++k) {
+    // Four earlier columns a pass, so each entry of the column is loaded and stored once per
+    // four updates (the subtractions keep their order k = 0, 1, …).
+    Eigen::Index k = 0;
+    for (; k + 4 <= j; k += 4) {
+      const double* __restrict l0 = L.col(k).data();
+      const double* __restrict l1 = L.col(k + 1).data();
+      const double* __restrict l2 = L.col(k + 2).data();
+      const double* __restrict l3 = L.col(k + 3).data();
+      const double a0 = L(j, k), a1 = L(j, k + 1), a2 = L(j, k + 2), a3 = L(j, k + 3);
+      for (Eigen::Index i = j; i < n; ++i) {
+        col[i] = col[i] - a0 * l0[i] - a1 * l1[i] - a2 * l2[i] - a3 * l3[i];
+      }
+    }
+    for (; k < j; ++k) {
       const double* __restrict lk = L.col(k).data();
       const double a = L(j, k);
       for (Eigen::Index i = j; i < n; ++i) col[i] -= a * lk[i];
@@ -65,6 +80,59 @@ bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
     for (Eigen::Index i = j + 1; i < n; ++i) col[i] /= d;
   }
   return true;
+}
+
+// Y[:, 0..k) ← L⁻¹Y by forward substitution, column by column: each step is a contiguous axpy
+// down a column of L (Eigen's blocked triangular solve is sized for larger matrices).
+RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, Eigen::MatrixXd& Y,
+                                               int k) {
+  const Eigen::Index n = L.rows();
+  for (int c = 0; c < k; ++c) {
+    double* __restrict y = Y.col(c).data();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (y[j] == 0.0) continue;  // a normal's leading zeros stay zero
+      y[j] /= L(j, j);
+      const double a = y[j];
+      const double* __restrict l = L.col(j).data();
+      for (Eigen::Index i = j + 1; i < n; ++i) y[i] -= a * l[i];
+    }
+  }
+}
+
+// out[0..m) = G[0..m, :]·x for column-major G: one contiguous axpy per column of G.
+RIDGELINE_SIMD_CLONES void product_columns(const Eigen::MatrixXd& G, int m,
+                                           const Eigen::VectorXd& x, double* __restrict out) {
+  std::fill_n(out, m, 0.0);
+  for (Eigen::Index c = 0; c < G.cols(); ++c) {
+    const double a = x[c];
+    const double* __restrict g = G.col(c).data();
+    for (int i = 0; i < m; ++i) out[i] += a * g[i];
+  }
+}
+
+// J[:, q..n) ← J[:, q..n)·(I − τvvᵀ) with v = [1; essential] (Eigen's
+// applyHouseholderOnTheRight, whose rank-one update is SSE2): w = Jv, then J −= τwvᵀ, both
+// column by column as contiguous axpys. w has J.rows() entries of workspace.
+RIDGELINE_SIMD_CLONES void apply_householder_right(Eigen::MatrixXd& J, int q,
+                                                   const double* essential, double tau,
+                                                   double* __restrict w) {
+  if (tau == 0.0) return;
+  const Eigen::Index n = J.rows();
+  const Eigen::Index cols = J.cols() - q;
+  std::fill_n(w, n, 0.0);
+  for (Eigen::Index c = 1; c < cols; ++c) {
+    const double a = essential[c - 1];
+    const double* __restrict col = J.col(q + c).data();
+    for (Eigen::Index i = 0; i < n; ++i) w[i] += a * col[i];
+  }
+  double* __restrict first = J.col(q).data();
+  for (Eigen::Index i = 0; i < n; ++i) w[i] += first[i];
+  for (Eigen::Index i = 0; i < n; ++i) first[i] -= tau * w[i];
+  for (Eigen::Index c = 1; c < cols; ++c) {
+    const double a = tau * essential[c - 1];
+    double* __restrict col = J.col(q + c).data();
+    for (Eigen::Index i = 0; i < n; ++i) col[i] -= a * w[i];
+  }
 }
 
 void rotate_columns(Eigen::MatrixXd& J, int a, int b, const Rotation& g) {
@@ -199,9 +267,8 @@ bool DualActiveSet::add(Side c) {
   if (!(d2_norm > kDependence * d_.norm())) return false;
   if (q + 1 < n_) {
     double tau = 0.0, beta = 0.0;
-    auto essential = d_.segment(q + 1, n_ - q - 1);
     d_.tail(n_ - q).makeHouseholderInPlace(tau, beta);
-    J_.rightCols(n_ - q).applyHouseholderOnTheRight(essential, tau, step_.data());
+    apply_householder_right(J_, q, d_.data() + q + 1, tau, step_.data());
     d_[q] = beta;
   }
   R_.col(q).head(q + 1) = d_.head(q + 1);
@@ -273,7 +340,7 @@ bool DualActiveSet::most_violated(Side& c, double& violation) {
     }
   }
   if (m_ > 0) {
-    gx_.head(m_).noalias() = q.G * x_;
+    product_columns(q.G, m_, x_, gx_.data());
     for (int j = 0; j < m_; ++j) {
       const double lo = q.lg[j], hi = q.ug[j];
       if (equal_sides(lo, hi)) continue;
@@ -352,7 +419,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       Y.col(j).setZero();
       add_normal(active_[j], 1.0, Y.col(j));
     }
-    L_.triangularView<Eigen::Lower>().solveInPlace(Y);
+    solve_lower_columns(L_, Y_, k);
     Eigen::Ref<Eigen::MatrixXd> S(S_.topLeftCorner(k, k));
     S.setZero();
     S.selfadjointView<Eigen::Lower>().rankUpdate(Y.transpose());
@@ -411,9 +478,11 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   }
   if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
   count_ = 0;
-  // J = L⁻ᵀ: solve Lᵀ J = I.
-  J_.setIdentity();
-  L_.triangularView<Eigen::Lower>().transpose().solveInPlace(J_);
+  // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the
+  // identity's leading zeros are skipped; Y_ is free once the fast path has failed).
+  Y_.setIdentity();
+  solve_lower_columns(L_, Y_, n_);
+  J_ = Y_.transpose();
   R_.setZero();
 
   // Equalities first (always in the working set), then the previous inequalities.

@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <immintrin.h>
+
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -30,6 +33,40 @@ void require_finite_positive(double value, std::string_view prefix, std::string_
   }
   if (value <= 0.0) {
     throw InputError(field_path(prefix, field), fmt::format("must be > 0, got {}", value));
+  }
+}
+
+// glibc's libmvec: sine and cosine of four doubles in AVX2 registers, within 4 ulp of libm's.
+extern "C" __m256d _ZGVdN4v_sin(__m256d x);
+extern "C" __m256d _ZGVdN4v_cos(__m256d x);
+
+// Gust modes evaluated a batch at a time (a multiple of 4, on the stack).
+constexpr int kModeBatch = 64;
+
+__attribute__((target("avx2"))) void sin_cos_avx2(const double* x, double* s, double* c, int n) {
+  for (int i = 0; i < n; i += 4) {  // n is a multiple of 4
+    const __m256d v = _mm256_loadu_pd(x + i);
+    _mm256_storeu_pd(s + i, _ZGVdN4v_sin(v));
+    _mm256_storeu_pd(c + i, _ZGVdN4v_cos(v));
+  }
+}
+
+// s = sin x, c = cos x for x[0..n), n ≤ kModeBatch; x is padded to a multiple of 4 here. The
+// wind field is evaluated at every 5 ms truth step of every UAV (64 modes by default), where
+// libm's scalar sincos was a tenth of a simulated flight's instructions; libmvec's AVX2
+// versions take four angles a call. The two agree to a few ulp, so the field differs between
+// machines with and without AVX2 only by round-off.
+void sin_cos(double* x, double* s, double* c, int n) {
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2) {
+    const int padded = (n + 3) / 4 * 4;
+    std::fill(x + n, x + padded, 0.0);
+    sin_cos_avx2(x, s, c, padded);
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    s[i] = std::sin(x[i]);
+    c[i] = std::cos(x[i]);
   }
 }
 
@@ -84,11 +121,20 @@ WindField::WindField(const WindConfig& config) : config_(config) {
 Vec3 WindField::gust_at(const Vec3& p_m, double t_s) const {
   if (config_.gust_std_m_s == 0.0) return Vec3::Zero();
   Vec3 sum = Vec3::Zero();
-  for (const Mode& mode : modes_) {
-    const double theta = mode.wave_vector_rad_m.dot(p_m) - mode.angular_frequency_rad_s * t_s;
-    const double cos_theta = std::cos(theta);
-    const double sin_theta = std::sin(theta);
-    sum += cos_theta * mode.cos_phase - sin_theta * mode.sin_phase;  // cos(θ + φ_c), eq. W1
+  double theta[kModeBatch], sin_theta[kModeBatch], cos_theta[kModeBatch];
+  const int n = static_cast<int>(modes_.size());
+  for (int begin = 0; begin < n; begin += kModeBatch) {
+    const int count = std::min(kModeBatch, n - begin);
+    for (int i = 0; i < count; ++i) {
+      const Mode& mode = modes_[static_cast<std::size_t>(begin + i)];
+      theta[i] = mode.wave_vector_rad_m.dot(p_m) - mode.angular_frequency_rad_s * t_s;
+    }
+    sin_cos(theta, sin_theta, cos_theta, count);
+    for (int i = 0; i < count; ++i) {
+      const Mode& mode = modes_[static_cast<std::size_t>(begin + i)];
+      // cos(θ + φ_c), eq. W1
+      sum += cos_theta[i] * mode.cos_phase - sin_theta[i] * mode.sin_phase;
+    }
   }
   return amplitude_.cwiseProduct(sum);
 }
