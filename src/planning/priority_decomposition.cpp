@@ -215,9 +215,9 @@ class UavSolver {
       refine_where_broken(own_check, own_, options_, setup, unused);
       refine_where_broken(flown.validation, own_, options_, setup, unused);
       bound_grades(flown.steep, setup);
-      // The reference's rounded corners move it off the waypoints' chords by metres: twice the
-      // miss plus 0.5 m on the step and its neighbours (the joint optimizer's + 0.1 m took
-      // every round on 100 UAVs).
+      // The reference's rounded corners move it off the waypoints' chords by metres: each miss
+      // adds itself plus 0.3 m to the margin of the step and its neighbours, and doubles their
+      // samples (the joint optimizer's + 0.1 m took every round on 100 UAVs).
       for (const SeparationHit& hit : hits)
         for (int kk = hit.step - 1; kk <= hit.step + 1; ++kk) {
           if (kk < 0 || kk >= n) continue;
