@@ -387,7 +387,7 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
     for (int i = 0; i < samples; ++i) {
       const double tau = t_s + i * kStep;
       const double delay = std::min(target, delay_now + rate * (tau - t_s));
-      const Vec3 r = reference_->plan_point(tau - std::max(delay, delay_now)).position_m;
+      const Vec3 r = reference_->plan_point(tau - delay).position_m;
       const double ground = terrain_->height(r.x(), r.y());
       for (std::size_t c = 0; c < nl; ++c) {
         const double z = r.z() + level_of(levels_[c], tau);
@@ -474,7 +474,6 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
   const double conflict_distance = d_safe + options_.neighbour_conflict_margin_m;
   const double horizon = options_.neighbour_lookahead_s;
   constexpr double kCheckStep = 0.25;   // s; at 20 m/s closing speed, 5 m between checks
-  constexpr double kStationary = 0.5;   // m/s: a neighbour this slow will not give way
   int added = 0;
   for (const auto& [id, n] : neighbours_) {
     const PredictedTrajectory& nb = n.prediction;
@@ -485,8 +484,7 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
                                             (nb.step_s * (count - 1)))
                                      : Vec3::Zero();
     const auto neighbour_at = [&](double t) { return messages::expected_position(nb, t); };
-    const bool stationary = velocity.norm() < kStationary;
-    if (!(id < options_.id || stationary)) continue;  // the other one yields
+    if (!yields_to(id, nb)) continue;  // the other one yields
     // Out of reach over the look-ahead (the reference and the neighbour closing at full
     // speed): no conflict, and no sampling, which is what made large teams slow.
     const double closing_m_s = options_.tracker.vehicle.max_speed_m_s() +
@@ -526,15 +524,18 @@ bool Agent::yields_to(int neighbour, const PredictedTrajectory& prediction) cons
          kStationary * span_s;
 }
 
+double mpc_neighbour_reach_m(const AgentOptions& options, const world::SafetyLimits& limits) {
+  const mpc::UavTrackerOptions& t = options.tracker;
+  return 2.0 * t.vehicle.max_speed_m_s() * t.prediction_step_s * t.prediction_horizon +
+         limits.separation_m + options.separation_margin_m + options.max_age_margin_m +
+         t.activation_distance_m;
+}
+
 void Agent::select_neighbours(double t_s, const Vec3& position_m) {
   const mpc::UavTrackerOptions& tracker = options_.tracker;
-  const double horizon_s = tracker.prediction_step_s * tracker.prediction_horizon;
   const double v_max = tracker.vehicle.max_speed_m_s();
   const double d_safe = limits_.separation_m;
-  // Two UAVs farther apart than this cannot come within a row's activation distance of
-  // d_safe (plus every margin) within the horizon, whatever either does.
-  const double reach = 2.0 * v_max * horizon_s + d_safe + options_.separation_margin_m +
-                       options_.max_age_margin_m + tracker.activation_distance_m;
+  const double reach = mpc_neighbour_reach_m(options_, limits_);
   nearby_.clear();
   bool stale = false;
   for (const auto& [id, n] : neighbours_) {

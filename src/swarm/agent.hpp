@@ -159,6 +159,12 @@ struct AgentOptions {
   }
 };
 
+/// How far a neighbour may be and still enter the MPC (before its age's v_max·age): two UAVs
+/// farther apart cannot come within a row's activation distance of d_safe (plus every
+/// margin) within the horizon, whatever either does. Also the transport's reach
+/// (prediction_reach.hpp).
+double mpc_neighbour_reach_m(const AgentOptions& options, const world::SafetyLimits& limits);
+
 class Agent final : public UavAgent {
  public:
   /// `plan` is this UAV's reference from the global planner; `limits` the mission's (the

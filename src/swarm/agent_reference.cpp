@@ -81,10 +81,7 @@ double AgentReference::rejoin(double t_s, const Vec3& position_m, double max_bac
       best_time = tp;
     }
   }
-  delay_from_s_ = delay_target_s_ = t_s - best_time;
-  delay_since_s_ = t_s;
-  detour_.reset();
-  ++revision_;
+  rewind(t_s, best_time);
   return delay_target_s_;
 }
 

@@ -14,11 +14,8 @@ PredictionReach prediction_reach(const std::vector<AgentOptions>& options,
     reach.far_period_s = std::min(reach.far_period_s, 0.25 * o.neighbour_stale_s);
   double reach_m = 0.0;
   for (const AgentOptions& o : options) {
-    const mpc::UavTrackerOptions& t = o.tracker;
-    const double v_max = t.vehicle.max_speed_m_s();
-    const double mpc_m = 2.0 * v_max * t.prediction_step_s * t.prediction_horizon +
-                         limits.separation_m + o.separation_margin_m + o.max_age_margin_m +
-                         t.activation_distance_m;
+    const double v_max = o.tracker.vehicle.max_speed_m_s();
+    const double mpc_m = mpc_neighbour_reach_m(o, limits);
     const double delay_s =
         reach.far_period_s + link.latency_s + link.jitter_s + 2.0 * broadcast_period_s;
     reach_m = std::max(reach_m, mpc_m + 2.0 * v_max * delay_s);

@@ -3,7 +3,7 @@
 //
 // An agent puts a neighbour in its MPC when it is within
 //   R_mpc = 2·v_max·T_p + d_safe + separation_margin_m + max_age_margin_m + activation_distance_m
-// of it plus v_max·age (swarm/agent.cpp, select_neighbours: two UAVs farther apart cannot come
+// of it plus v_max·age (swarm/agent.hpp, mpc_neighbour_reach_m: two UAVs farther apart cannot come
 // within a row's activation distance in the horizon T_p). A participant beyond the transport's
 // reach gets a prediction only every far period, so its predictions are up to
 // far_period + latency + jitter + one broadcast period old, and the transport measures
