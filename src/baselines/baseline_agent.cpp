@@ -167,17 +167,8 @@ void BaselineAgent::update_mission(double t_s, const Vec3& position_m) {
 void BaselineAgent::rollout(const vehicle::State& state, const vehicle::Input& from,
                             const vehicle::Input& target, const Vec3& wind_m_s, double step_s,
                             int steps, std::vector<Vec3>& positions) const {
-  positions.clear();
-  vehicle::State s = state;
-  vehicle::Input u = from;
-  const Vec3 max_change = options_.max_command_rate * step_s;
-  for (int k = 0; k < steps; ++k) {
-    for (int i = 0; i < 3; ++i)
-      u[i] = std::clamp(target[i], u[i] - max_change[i], u[i] + max_change[i]);
-    s = vehicle::euler_step(s, vehicle::clamp_to_limits(u, s, options_.vehicle), wind_m_s,
-                            options_.vehicle, step_s);
-    positions.emplace_back(s.head<3>());
-  }
+  vehicle::rollout_positions(state, from, target, options_.max_command_rate, wind_m_s,
+                             options_.vehicle, step_s, steps, positions);
 }
 
 swarm::AgentStep BaselineAgent::control(double t_s, const vehicle::State& measured,

@@ -125,6 +125,7 @@ MissionResult FlightRecorder::finish(double t, const std::vector<UavOutcome>& ou
     um.level_changes = static_cast<long long>(c.level_changes);
     um.delay_changes = static_cast<long long>(c.delay_changes);
     um.reapproaches = static_cast<long long>(c.reapproaches);
+    um.guard_steps = static_cast<long long>(c.guard_steps);
     um.fallback_steps = static_cast<long long>(c.fallback_steps);
     um.qp_failures = static_cast<long long>(c.qp_failures);
     um.stale_neighbour_steps = static_cast<long long>(c.stale_neighbour_steps);

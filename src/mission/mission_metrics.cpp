@@ -49,6 +49,7 @@ nlohmann::json to_json(const MissionMetrics& m) {
                     {"level_changes", u.level_changes},
                     {"delay_changes", u.delay_changes},
                     {"reapproaches", u.reapproaches},
+                    {"guard_steps", u.guard_steps},
                     {"fallback_steps", u.fallback_steps},
                     {"qp_failures", u.qp_failures},
                     {"stale_neighbour_steps", u.stale_neighbour_steps},

@@ -44,6 +44,7 @@ struct UavMetrics {
   long long level_changes = 0;  ///< separation levels the agent chose (swarm/agent.hpp)
   long long delay_changes = 0;  ///< separation delays the agent chose (swarm/agent.hpp)
   long long reapproaches = 0;   ///< blocked targets approached again (swarm/agent.hpp)
+  long long guard_steps = 0;    ///< steps flown on the separation guard's escape command
   long long fallback_steps = 0;
   long long qp_failures = 0;
   long long stale_neighbour_steps = 0;

@@ -140,6 +140,13 @@ void UavTracker::reset(const vehicle::Input& initial_command) {
   mpc_.reset();
 }
 
+void UavTracker::record_applied_command(const vehicle::Input& applied) {
+  if (history_size_ > 0) history_[history_head_].command = applied;
+  previous_command_ = applied;
+  have_previous_command_ = true;
+  have_previous_prediction_ = false;
+}
+
 void UavTracker::push_history(const HistoryEntry& entry) {
   const int cap = static_cast<int>(history_.size());
   history_head_ = (history_head_ + 1) % cap;

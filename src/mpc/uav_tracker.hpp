@@ -186,6 +186,11 @@ class UavTracker {
   /// starts from `initial_command`.
   void reset(const vehicle::Input& initial_command);
 
+  /// The last step's command was not flown: `applied` was (the agent's separation guard chose
+  /// another). The history and the next step's increments start from it, and the last
+  /// prediction, which assumed the tracker's command, no longer seeds the linearization.
+  void record_applied_command(const vehicle::Input& applied);
+
   const UavTrackerOptions& options() const { return options_; }
   const world::SafetyLimits& limits() const { return limits_; }
   const IncrementalMpc& mpc() const { return mpc_; }

@@ -47,7 +47,10 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
       limits_(limits),
       terrain_(std::move(terrain)),
       reference_(std::make_shared<AgentReference>(std::move(plan))),
-      tracker_(options.tracker, limits) {
+      tracker_(options.tracker, limits),
+      guard_(options.separation_guard, options.tracker.vehicle,
+             Vec3(options.tracker.max_speed_cmd_rate_m_s2, options.tracker.max_turn_cmd_rate_rad_s2,
+                  options.tracker.max_climb_cmd_rate_m_s2)) {
   require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
   require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
@@ -575,13 +578,61 @@ vehicle::Input Agent::fallback_command(double t_s, const vehicle::State& state) 
   if (z > limits_.altitude.max_m - 10.0) climb = -0.5 * p.max_climb_rate_m_s;
   vehicle::Input u(p.min_speed_m_s(), 0.5 * heading_error, climb);
   u[1] = std::clamp(u[1], -p.max_turn_rate_rad_s(v), p.max_turn_rate_rad_s(v));
+  return rate_limited(u, state);
+}
+
+vehicle::Input Agent::rate_limited(const vehicle::Input& target,
+                                   const vehicle::State& state) const {
   // Rate limits of one control period, as the tracker obeys them.
   const double T = options_.tracker.control_period_s;
   const Vec3 rate(options_.tracker.max_speed_cmd_rate_m_s2, options_.tracker.max_turn_cmd_rate_rad_s2,
                   options_.tracker.max_climb_cmd_rate_m_s2);
+  vehicle::Input u = target;
   for (int k = 0; k < 3; ++k)
     u[k] = std::clamp(u[k], last_command_[k] - rate[k] * T, last_command_[k] + rate[k] * T);
-  return vehicle::clamp_to_limits(u, state, p);
+  return vehicle::clamp_to_limits(u, state, options_.tracker.vehicle);
+}
+
+vehicle::Input Agent::guard_command(double t_s, const vehicle::State& state,
+                                    const vehicle::Input& planned,
+                                    const mpc::UavTrackerResult& r,
+                                    const std::vector<Vec3>*& path) {
+  path = nullptr;
+  const SeparationGuardOptions& g = guard_.options();
+  GuardInput in;
+  in.t_s = t_s;
+  in.state = state;
+  in.last_command = last_command_;
+  in.planned_command = planned;
+  in.wind_m_s = wind_estimate_;
+  if (mode_ == AgentMode::kFallback) {
+    // The fallback's command held: what it will fly, and what the neighbours should see.
+    const Vec3 rate(options_.tracker.max_speed_cmd_rate_m_s2,
+                    options_.tracker.max_turn_cmd_rate_rad_s2,
+                    options_.tracker.max_climb_cmd_rate_m_s2);
+    vehicle::rollout_positions(state, last_command_, planned, rate, wind_estimate_,
+                               options_.tracker.vehicle, g.step_s,
+                               std::max(1, static_cast<int>(std::round(g.horizon_s / g.step_s))),
+                               planned_path_);
+    in.planned_start_s = t_s + g.step_s;
+    in.planned_step_s = g.step_s;
+    path = &planned_path_;
+  } else {
+    planned_path_.resize(static_cast<std::size_t>(r.predicted_positions_m.cols()));
+    for (Eigen::Index j = 0; j < r.predicted_positions_m.cols(); ++j)
+      planned_path_[static_cast<std::size_t>(j)] = r.predicted_positions_m.col(j);
+    in.planned_start_s = r.first_prediction_time_s;
+    in.planned_step_s = r.prediction_step_s;
+  }
+  in.planned_path_m = planned_path_;
+  const GuardSurroundings around{neighbour_buffer_, threat_buffer_, terrain_.get(), &limits_};
+  const GuardDecision d = guard_.check(in, around);
+  if (!d.escape) return planned;
+  ++counters_.guard_steps;
+  path = &guard_.escape_path();
+  const vehicle::Input u = rate_limited(d.command, state);
+  if (mode_ == AgentMode::kTracking) tracker_.record_applied_command(u);
+  return u;
 }
 
 AgentStep Agent::control(double t_s, const vehicle::State& measured,
@@ -647,18 +698,34 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     mode_ = AgentMode::kTracking;
   }
 
+  vehicle::Input planned = r.command;
   if (mode_ == AgentMode::kFallback) {
-    out.command = fallback_command(t_s, measured_state);
+    planned = fallback_command(t_s, measured_state);
     ++counters_.fallback_steps;
-  } else {
-    out.command = r.command;
   }
+  const std::vector<Vec3>* flown_path = nullptr;
+  out.command = guard_command(t_s, measured_state, planned, r, flown_path);
   last_command_ = out.command;
   out.mode = mode_;
   out.reference_m = reference_position;
   out.tracker = &r;
   out.max_slack_m = r.max_slack_m();
 
+  if (flown_path != nullptr && !flown_path->empty()) {
+    // The fallback's or the guard's path: broadcast what will be flown.
+    PredictedTrajectory p;
+    p.uav = options_.id;
+    p.step_s = guard_.options().step_s;
+    p.stamp_s = t_s;
+    p.positions_m = *flown_path;
+    update_intent(t_s);
+    p.intent_start_s = intent_start_s_;
+    p.intent_step_s = options_.intent_step_s;
+    p.intent_m = intent_;
+    p.intent_revision = intent_revision_;
+    prediction_ = std::move(p);
+    return out;
+  }
   if (r.predicted_positions_m.cols() > 0) {
     PredictedTrajectory p;
     p.uav = options_.id;

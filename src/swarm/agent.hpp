@@ -47,7 +47,12 @@
 //     intent moves. A neighbour a free slot clears needs no detour.
 //  3. tracking: the MPC tracker with the known threats, the neighbours' broadcast predictions
 //     and the terrain as soft constraints.
-//  4. safe fallback: when the QP is not solved for fallback_after_failures consecutive steps,
+//  4. separation guard (separation_guard.hpp): the command about to be flown (the tracker's or
+//     the fallback's) is rolled out and checked against the neighbours' expected positions;
+//     when it comes within d_safe + a trigger margin of one, the held command with the
+//     largest worst margin (neighbours, terrain, band, threats) is flown instead, and its
+//     rollout is broadcast.
+//  5. safe fallback: when the QP is not solved for fallback_after_failures consecutive steps,
 //     or the reference is lost (farther than lost_reference_m even after re-joining), the
 //     agent slows to the band's lower end, turns toward its reference and climbs while the
 //     terrain clearance is below 2·h_safe (never above H_max); it returns to tracking once
@@ -72,6 +77,7 @@
 #include "planning/local_replan.hpp"
 #include "swarm/agent_reference.hpp"
 #include "swarm/messages.hpp"
+#include "swarm/separation_guard.hpp"
 #include "swarm/uav_agent.hpp"
 #include "world/terrain.hpp"
 #include "world/threat.hpp"
@@ -142,6 +148,10 @@ struct AgentOptions {
   double wind_filter_time_s = 0.5;    ///< ≥ 0; 0 uses the raw anemometer
   int fallback_after_failures = 5;
   int recover_after_successes = 10;
+  /// The last line of the protocol (separation_guard.hpp): the path about to be flown is
+  /// checked against the neighbours every step and, when it comes too close, the safest held
+  /// command is flown instead.
+  SeparationGuardOptions separation_guard;
   /// Re-plan a conflict with the local optimizer (planning/local_replan.hpp: the window
   /// re-optimized against the known threats and the neighbour conflicts, densely validated)
   /// instead of the geometric detour; the detour stays the fallback when the optimizer finds
@@ -231,6 +241,14 @@ class Agent final : public UavAgent {
   /// to the tracker's capacity, each with the distance its rows keep.
   void select_neighbours(double t_s, const Vec3& position_m);
   vehicle::Input fallback_command(double t_s, const vehicle::State& state) const;
+  /// `target` moved from the last command at most one control period's command rates, then
+  /// clamped into the limits at `state`: what may be flown this step.
+  vehicle::Input rate_limited(const vehicle::Input& target, const vehicle::State& state) const;
+  /// Runs the separation guard on the command about to be flown; returns the command to fly
+  /// and points `path` at the positions to broadcast (nullptr: the tracker's prediction).
+  vehicle::Input guard_command(double t_s, const vehicle::State& state,
+                               const vehicle::Input& planned, const mpc::UavTrackerResult& r,
+                               const std::vector<Vec3>*& path);
   void forget_old_threats(double t_s);
 
   AgentOptions options_;
@@ -238,6 +256,8 @@ class Agent final : public UavAgent {
   std::shared_ptr<const world::Terrain> terrain_;
   std::shared_ptr<AgentReference> reference_;
   mpc::UavTracker tracker_;
+  SeparationGuard guard_;
+  std::vector<Vec3> planned_path_;  ///< the path the guard checks (tracker's or fallback's)
   std::map<int, KnownThreat> threats_;
   std::map<int, KnownNeighbour> neighbours_;
   std::vector<world::Threat> threat_buffer_;

@@ -52,12 +52,13 @@ struct AgentCounters {
   std::uint64_t delay_changes = 0;  ///< separation delays chosen (agent.hpp)
   std::uint64_t reapproaches = 0;   ///< blocked targets approached again (agent.hpp)
   std::uint64_t fallback_steps = 0;
+  std::uint64_t guard_steps = 0;  ///< steps flown on the separation guard's escape (agent.hpp)
   std::uint64_t qp_failures = 0;
   std::uint64_t threat_reports_sent = 0;
 };
 RIDGELINE_WIRE_FIELDS(AgentCounters, "AgentCounters", messages_received, messages_rejected,
                       stale_neighbour_steps, replans, neighbour_conflicts, replan_failures,
-                      optimizer_replans, optimizer_fallbacks, rejoins, level_changes, delay_changes, reapproaches, fallback_steps, qp_failures,
+                      optimizer_replans, optimizer_fallbacks, rejoins, level_changes, delay_changes, reapproaches, fallback_steps, guard_steps, qp_failures,
                       threat_reports_sent)
 
 struct AgentStep {

@@ -97,4 +97,19 @@ Input clamp_to_limits(const Input& u, const State& s, const VehicleParams& p) {
 
 double pitch_angle_rad(const State& s) { return std::atan2(s[kW], s[kV]); }
 
+void rollout_positions(const State& s, const Input& from, const Input& target,
+                       const Vec3& max_command_rate, const Vec3& wind_m_s, const VehicleParams& p,
+                       double step_s, int steps, std::vector<Vec3>& positions) {
+  positions.clear();
+  State state = s;
+  Input u = from;
+  const Vec3 max_change = max_command_rate * step_s;
+  for (int k = 0; k < steps; ++k) {
+    for (int i = 0; i < 3; ++i)
+      u[i] = std::clamp(target[i], u[i] - max_change[i], u[i] + max_change[i]);
+    state = euler_step(state, clamp_to_limits(u, state, p), wind_m_s, p, step_s);
+    positions.emplace_back(state.head<3>());
+  }
+}
+
 }  // namespace ridgeline::vehicle

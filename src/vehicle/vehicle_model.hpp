@@ -13,6 +13,8 @@
 // with RK4, possibly with different time constants (model mismatch is deliberate).
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "core/types.hpp"
@@ -81,6 +83,15 @@ StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, doub
 /// (with v the current horizontal speed, floored at the minimum speed), and the climb
 /// command to both w_max and the pitch limit |w_c| ≤ v·tan θ_max.
 Input clamp_to_limits(const Input& u, const State& s, const VehicleParams& p);
+
+/// Positions reached by flying toward the command `target` from the command `from` with the
+/// Euler model over `steps` steps of `step_s`: the command moves at most
+/// max_command_rate·step_s a step (the tracker's rate limits) and is clamped into the limits at
+/// each state. `positions` is cleared and gets one position a step. For local planners that
+/// score held commands (the DWA baseline, the agent's separation guard).
+void rollout_positions(const State& s, const Input& from, const Input& target,
+                       const Vec3& max_command_rate, const Vec3& wind_m_s, const VehicleParams& p,
+                       double step_s, int steps, std::vector<Vec3>& positions);
 
 /// Flight-path (pitch) angle θ = atan2(w, v) of a state.
 double pitch_angle_rad(const State& s);

@@ -1,0 +1,108 @@
+// The separation guard: the last line of the separation protocol (agent.hpp, README
+// "Separation in dense teams").
+//
+// Slots, detours and the MPC's neighbour rows keep UAVs apart in the plan; none of them can
+// promise it when the rows are outweighed (no free slot, a failed QP, a reference far away, a
+// neighbour that changed its mind and whose new prediction is late). So every control step the
+// path the agent is about to fly (the MPC's prediction, or the fallback command's rollout) is
+// checked against every selected neighbour's expected position at equal times
+// (messages::expected_position: its prediction, then its intent) over the guard's horizon.
+// When it comes within d_safe + trigger_margin_m of one, the guard scores held commands —
+// a lattice of speed × turn rate × climb rate, each reached from the last command at the
+// tracker's command-rate limits and rolled out with the Euler model and the wind estimate —
+// by their worst margin over the horizon against
+//   every neighbour (distance − d_safe), the terrain (clearance − h_safe − model error),
+//   the altitude band and every known threat (surface distance − r_safe),
+// and the agent flies the best one instead when it beats the path's own worst margin: the
+// largest margin up to comfortable_margin_m, then the command closest to the one it replaces.
+// The chosen rollout is broadcast as the prediction, so the neighbours see the escape at once.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "core/types.hpp"
+#include "swarm/messages.hpp"
+#include "vehicle/vehicle_model.hpp"
+#include "world/safety_limits.hpp"
+#include "world/terrain.hpp"
+#include "world/threat.hpp"
+
+namespace ridgeline::swarm {
+
+struct SeparationGuardOptions {
+  bool enabled = true;
+  double horizon_s = 4.0;  ///< > 0: how far paths are checked and commands rolled out
+  double step_s = 0.1;     ///< > 0, ≤ horizon_s
+  /// The path is checked against d_safe + trigger_margin_m (≥ 0).
+  double trigger_margin_m = 1.0;
+  /// Margins above this (> 0) count as equal; the closest command to the replaced one wins.
+  double comfortable_margin_m = 3.0;
+  int speed_samples = 3;  ///< ≥ 2: v_min … v_max
+  int turn_samples = 5;   ///< ≥ 3, odd: −ω_max … ω_max
+  int climb_samples = 3;  ///< ≥ 3, odd: −w_max … w_max
+};
+
+/// Throws InputError naming the field (`separation_guard.horizon_s`, ...).
+void validate(const SeparationGuardOptions& options);
+
+/// What the guard checks against, at the current control step.
+struct GuardSurroundings {
+  std::span<const PredictedTrajectory> neighbours;
+  std::span<const world::Threat> threats;
+  const world::Terrain* terrain = nullptr;
+  const world::SafetyLimits* limits = nullptr;
+};
+
+/// The agent's own motion at the current step and the path it intends to fly.
+struct GuardInput {
+  double t_s = 0.0;
+  vehicle::State state = vehicle::State::Zero();
+  vehicle::Input last_command = vehicle::Input::Zero();  ///< applied until now
+  vehicle::Input planned_command = vehicle::Input::Zero();
+  Vec3 wind_m_s = Vec3::Zero();
+  /// Positions the planned command leads to, at planned_start_s + k·planned_step_s.
+  std::span<const Vec3> planned_path_m;
+  double planned_start_s = 0.0;
+  double planned_step_s = 0.1;
+};
+
+struct GuardDecision {
+  bool escape = false;  ///< fly `command` instead of the planned one
+  vehicle::Input command = vehicle::Input::Zero();
+  double planned_margin_m = 0.0;  ///< the planned path's worst margin (all constraints)
+  double margin_m = 0.0;          ///< the flown command's worst margin
+};
+
+class SeparationGuard {
+ public:
+  /// `max_command_rate`: the tracker's |v̇_c|, |ω̇_c|, |ẇ_c|. Throws InputError for invalid
+  /// options.
+  SeparationGuard(const SeparationGuardOptions& options, const vehicle::VehicleParams& vehicle,
+                  const Vec3& max_command_rate);
+
+  const SeparationGuardOptions& options() const { return options_; }
+
+  /// The decision for this step. Allocation-free once warm.
+  GuardDecision check(const GuardInput& input, const GuardSurroundings& surroundings);
+
+  /// The escape's positions at t_s + (k+1)·step_s (valid after a check that escaped).
+  const std::vector<Vec3>& escape_path() const { return best_path_; }
+
+ private:
+  /// Worst margin of positions at t0 + k·dt (k from 0) over every constraint; the neighbours'
+  /// positions are sampled by `neighbour_at`.
+  template <class NeighbourAt>
+  double worst_margin(std::span<const Vec3> path, double t0, double dt, const GuardSurroundings& s,
+                      NeighbourAt&& neighbour_at) const;
+
+  SeparationGuardOptions options_;
+  vehicle::VehicleParams vehicle_;
+  Vec3 max_command_rate_;
+  int steps_ = 0;
+  std::vector<Vec3> neighbour_samples_;  ///< neighbours × steps, at the guard's times
+  std::vector<Vec3> rollout_;
+  std::vector<Vec3> best_path_;
+};
+
+}  // namespace ridgeline::swarm
