@@ -258,12 +258,10 @@ void UavTracker::set_limits(const vehicle::State& state) {
     const double v_nominal = i == 0 ? state[kV] : nominal_states_(kV, i);
     const double speed = std::max(v_nominal, p.min_speed_m_s());
     const double max_turn = p.max_turn_rate_rad_s(speed);  // eq. 3
-    // The pitch limit |w| ≤ v·tan θ_max must hold on the vehicle whatever its speed does
-    // while the climb command holds: the speed lags the commands and may fall to the band's
-    // floor, so the floor bounds the climb (measured: bounded by the nominal speed, a UAV
-    // slowing while it climbed away from a neighbour flew 30.2° for 0.2 s).
-    const double max_climb =
-        std::min(p.max_climb_rate_m_s, p.min_speed_m_s() * std::tan(p.max_pitch_rad));
+    // The pitch limit must hold on the vehicle whatever its speed does while the climb
+    // command holds (measured: bounded by the nominal speed, a UAV slowing while it climbed
+    // away from a neighbour flew 30.2° for 0.2 s).
+    const double max_climb = p.robust_max_climb_rate_m_s();
     d.input_min(kSpeedCmd, i) = p.min_speed_m_s();  // eq. 2
     d.input_max(kSpeedCmd, i) = p.max_speed_m_s();
     d.input_min(kTurnRateCmd, i) = -max_turn;

@@ -343,9 +343,7 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
   const double crossing = limits_.separation_m + options_.neighbour_conflict_margin_m;
   const int samples = static_cast<int>(options_.level_lookahead_s / kStep) + 1;
   const vehicle::VehicleParams& v = options_.tracker.vehicle;
-  // The climb bound at the slowest speed keeps the pitch limit whatever the speed does.
-  const double climb_rate =
-      0.9 * std::min(v.max_climb_rate_m_s, v.min_speed_m_s() * std::tan(v.max_pitch_rad));
+  const double climb_rate = 0.9 * v.robust_max_climb_rate_m_s();
 
   // The neighbours this UAV yields to that can reach its reference's neighbourhood within the
   // look-ahead, at the sample times.
@@ -590,6 +588,9 @@ vehicle::Input Agent::rate_limited(const vehicle::Input& target,
   vehicle::Input u = target;
   for (int k = 0; k < 3; ++k)
     u[k] = std::clamp(u[k], last_command_[k] - rate[k] * T, last_command_[k] + rate[k] * T);
+  // The climb bound that keeps the pitch limit while the speed falls, as the tracker's.
+  const double climb = options_.tracker.vehicle.robust_max_climb_rate_m_s();
+  u[2] = std::clamp(u[2], -climb, climb);
   return vehicle::clamp_to_limits(u, state, options_.tracker.vehicle);
 }
 

@@ -112,7 +112,8 @@ GuardDecision SeparationGuard::check(const GuardInput& in, const GuardSurroundin
   const double v_min = vehicle_.min_speed_m_s(), v_max = vehicle_.max_speed_m_s();
   const double speed = std::max(in.state[vehicle::kV], v_min);
   const double turn_max = vehicle_.max_turn_rate_rad_s(speed);
-  const double climb_max = vehicle_.max_climb_rate_m_s;
+  // The climb bound that keeps the pitch limit while the speed falls (the tracker's).
+  const double climb_max = vehicle_.robust_max_climb_rate_m_s();
   const Vec3 scale(std::max(v_max - v_min, 1e-6), std::max(turn_max, 1e-6), climb_max);
   double best_capped = -kInf, best_distance = kInf;
   for (int a = 0; a < options_.speed_samples; ++a) {

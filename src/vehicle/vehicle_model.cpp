@@ -9,6 +9,10 @@ double VehicleParams::max_turn_rate_rad_s(double speed_m_s) const {
   return std::max(speed_m_s, 0.0) / min_turn_radius_m;
 }
 
+double VehicleParams::robust_max_climb_rate_m_s() const {
+  return std::min(max_climb_rate_m_s, min_speed_m_s() * std::tan(max_pitch_rad));
+}
+
 State derivative(const State& s, const Input& u, const Vec3& wind_m_s, const VehicleParams& p) {
   const double psi = s[kPsi];
   const double v = s[kV];

@@ -50,6 +50,10 @@ struct VehicleParams {
   double max_speed_m_s() const { return cruise_speed_m_s + speed_band_m_s; }
   /// Largest admissible |ω_c| at horizontal speed v (eq. 3).
   double max_turn_rate_rad_s(double speed_m_s) const;
+  /// The climb-rate bound that keeps the pitch limit |w| ≤ v·tan θ_max whatever the speed does
+  /// while a climb command holds: the speed lags the commands and may fall to the band's
+  /// floor, so the floor bounds the climb (and w_max): min(w_max, v_min·tan θ_max).
+  double robust_max_climb_rate_m_s() const;
 };
 
 /// Continuous-time dynamics f(s, u, W) of eq. 1.
