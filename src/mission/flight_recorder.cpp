@@ -114,7 +114,7 @@ MissionResult FlightRecorder::finish(double t, const std::vector<UavOutcome>& ou
     const std::optional<Vec3>& end = scenario_.uavs[i].end_position_m;
     if (end) {
       um.end_distance_m = (u.last_position - *end).norm();
-      um.end_reached = um.end_distance_m <= InspectionTarget{}.inspection_radius_m;
+      um.end_reached = um.end_distance_m <= end_reached_radius_m();
     }
     const swarm::AgentCounters& c = a.counters;
     um.replans = static_cast<long long>(c.replans);

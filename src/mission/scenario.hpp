@@ -90,6 +90,10 @@ struct InspectionTarget {
   double inspection_radius_m = 30.0;  ///< a pass this close (3-D) counts as an inspection
 };
 
+/// A UAV's end position (return home, a landing point) counts as reached this close: a
+/// target's default inspection radius. The agent flies on until it is; the recorder judges it.
+inline double end_reached_radius_m() { return InspectionTarget{}.inspection_radius_m; }
+
 /// Parameters of the incremental MPC tracker (DESIGN §3).
 struct MpcConfig {
   double control_period_s = 0.02;  ///< 50 Hz

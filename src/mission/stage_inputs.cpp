@@ -85,6 +85,7 @@ swarm::AgentOptions make_agent_options(const Scenario& scenario, int index,
     o.targets.push_back({t.name, t.position_m, t.inspection_radius_m, t.inspection_radius_m});
   }
   o.fly_to_end = uav.end_position_m.has_value();
+  o.end_radius_m = end_reached_radius_m();
   o.broadcast_period_s = 1.0 / scenario.simulation.message_rate_hz;
   o.detour.max_climb_rate_m_s = uav.vehicle.max_climb_rate_m_s;
   o.optimizer_replan = scenario.planner.optimizer_replan;

@@ -54,6 +54,7 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
   require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
   require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
+  require(options.end_radius_m > 0.0, "end_radius_m", "must be positive");
   require(options.threat_report_period_s > 0.0, "threat_report_period_s", "must be positive");
   require(options.replan_period_s > 0.0, "replan_period_s", "must be positive");
   require(options.neighbour_lookahead_s > 0.0 && std::isfinite(options.neighbour_lookahead_s),
@@ -213,8 +214,16 @@ void Agent::update_mission(double t_s, const Vec3& position_m) {
   }
   if (next_target_ == n) {
     const bool route_flown = n > 0 && !options_.fly_to_end;
-    if ((route_flown || t_s >= reference_->plan_end_time_s()) &&
-        !hold_point_threatened(t_s, position_m))
+    const double end_s = reference_->plan_end_time_s();
+    bool plan_flown = t_s >= end_s;
+    if (options_.fly_to_end && plan_flown) {
+      // The end position must be reached, not only the plan's time: a UAV held back (a
+      // detour, the separation guard) flies on to it, for up to missed_after_s more.
+      const Vec3 end = reference_->plan_point(end_s - reference_->delay_target_s()).position_m;
+      plan_flown = (position_m - end).norm() <= options_.end_radius_m ||
+                   t_s > end_s + options_.missed_after_s;
+    }
+    if ((route_flown || plan_flown) && !hold_point_threatened(t_s, position_m))
       mode_ = AgentMode::kFinished;
     return;
   }

@@ -93,6 +93,9 @@ struct AgentOptions {
   /// The plan ends at the UAV's end position (return home, a landing point) after its last
   /// target: the agent finishes only once it has flown the reference to its end.
   bool fly_to_end = false;
+  /// The end counts as reached this close (> 0; set from mission::end_reached_radius_m(), as
+  /// the flight recorder judges it).
+  double end_radius_m = 30.0;
   double broadcast_period_s = 0.01;
   double threat_report_period_s = 1.0;
   double neighbour_stale_s = 1.0;

@@ -232,6 +232,24 @@ TEST(Agent, AHoveringNeighbourOnThePathIsAvoidedWhateverTheIds) {
   EXPECT_GE(std::hypot(passing.x() - 60.0, passing.y()), 10.0 + 10.0 + 15.0 - 1.0);
 }
 
+// A UAV with an end position finishes there, not merely when the plan's time is up: one held
+// back (a detour, the separation guard) flies on to it.
+TEST(Agent, AnEndPositionIsReachedNotOnlyTimedOut) {
+  AgentOptions o = options(0, 1);
+  o.targets.clear();
+  o.fly_to_end = true;
+  o.end_radius_m = 30.0;
+  Agent a(o, world::SafetyLimits{}, line_east(0.0), flat());
+  a.control(100.5, state_at(Vec3(900, 0, 100)), Vec3::Zero());  // 100 m short at the end time
+  EXPECT_FALSE(a.finished());
+  // (It re-joined its plan near where it is: the plan now ends later.)
+  const double end_s = a.reference().plan_end_time_s();
+  a.control(end_s + 0.5, state_at(Vec3(965, 0, 100)), Vec3::Zero());  // still 35 m short
+  EXPECT_FALSE(a.finished());
+  a.control(end_s + 1.0, state_at(Vec3(975, 0, 100)), Vec3::Zero());  // within 30 m of (1000, 0)
+  EXPECT_TRUE(a.finished());
+}
+
 // Issue 19 part 5: a target blocked at the pass is approached again. A neighbour hovers on
 // the target (which counts within 8 m) until t = 30 s, so the first pass keeps d_safe and
 // more from it (the whole flight does) and misses the target; the reference is rewound, the UAV turns back, and the
