@@ -92,7 +92,7 @@ struct LocalReplanOptions {
   int max_refinements = 3;                 ///< ≥ 0: re-solves after a failed validation
   /// > 0: CPU time of the calling thread over the whole re-plan (screen, solves, checks), as
   /// the global planner's budget (core/cpu_clock.hpp): a lock-step flight gives the same
-  /// re-plans on a loaded machine; on board, where the core is the agent's, it is wall time.
+  /// re-plans on a loaded machine (on board it bounds the wall time while the thread has its core).
   /// The target is a re-plan within 100 ms; past the budget the re-plan fails (kTimeLimit) and
   /// the agent keeps its validated fallback, so the budget bounds the worst case.
   double time_budget_s = 0.09;
