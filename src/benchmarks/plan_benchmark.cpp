@@ -28,6 +28,7 @@ nlohmann::json PlanScalingRow::to_json() const {
                       {"ipopt_iterations", ipopt_iterations},
                       {"solves", solves},
                       {"decomposed", decomposed},
+                      {"priority_swaps", priority_swaps},
                       {"variables", variables},
                       {"constraints", constraints},
                       {"separation_rows", separation_rows},
@@ -105,6 +106,7 @@ PlanScalingRow measure_plan(const planning::GlobalPlanningProblem& problem,
     row.ipopt_iterations = o.ipopt_iterations;
     row.solves = o.solves;
     row.decomposed = o.decomposed;
+    row.priority_swaps = o.priority_swaps;
     row.variables = o.variables;
     row.constraints = o.constraints;
     row.separation_rows = o.separation_rows;

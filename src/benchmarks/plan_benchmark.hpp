@@ -54,6 +54,7 @@ struct PlanScalingRow {
   int ipopt_iterations = 0;
   int solves = 0;  ///< 1 + refinement rounds (decomposed: summed over the UAVs)
   bool decomposed = false;  ///< optimized one UAV at a time (priority_decomposition.hpp)
+  int priority_swaps = 0;   ///< decomposed: UAVs moved before the one they failed against
   int variables = 0;
   int constraints = 0;
   int separation_rows = 0;

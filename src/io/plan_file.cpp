@@ -67,6 +67,7 @@ nlohmann::json plan_to_json(const planning::GlobalPlan& plan, const mission::Sce
                       {"message", r.message},
                       {"iterations", r.ipopt_iterations},
                       {"solves", r.solves},
+                      {"priority_swaps", r.priority_swaps},
                       {"variables", r.variables},
                       {"constraints", r.constraints},
                       {"separation_rows", r.separation_rows},

@@ -11,6 +11,7 @@
 #include <optional>
 #include <utility>
 
+#include "core/cpu_clock.hpp"
 #include "core/error.hpp"
 #include "planning/trajectory_ipopt.hpp"
 #include "planning/trajectory_nlp.hpp"
@@ -541,6 +542,10 @@ std::string_view to_string(LocalReplanStatus status) {
 LocalReplanResult replan_locally(const LocalReplanProblem& problem,
                                  const LocalReplanOptions& options) {
   const auto t_start = Clock::now();
+  // The budget is this thread's CPU time (file comment of core/cpu_clock.hpp): in a lock-step
+  // simulation a re-plan that fits it is the same whatever else the machine runs.
+  CpuBudget budget(options.time_budget_s);
+  CpuMeter meter(budget);
   LocalReplanResult result;
   auto fail = [&](LocalReplanStatus status, std::string message) {
     result.status = status;
@@ -626,10 +631,10 @@ LocalReplanResult replan_locally(const LocalReplanProblem& problem,
         if (auto it = previous_lambda.find(nlp.row_key(r)); it != previous_lambda.end())
           warm.lambda[r] = it->second;
     }
-    const double remaining_s = options.time_budget_s - seconds_since(t_start);
+    const double remaining_s = meter.remaining_s();
     if (remaining_s <= 0.0)
       return fail(LocalReplanStatus::kTimeLimit,
-                  fmt::format("time budget of {:.3f} s exhausted after {} solve(s){}",
+                  fmt::format("time budget of {:.3f} s CPU exhausted after {} solve(s){}",
                               options.time_budget_s, result.solves,
                               last_finding.empty() ? "" : "; last: " + last_finding));
     const detail::IpoptSolve solve =

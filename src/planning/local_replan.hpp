@@ -90,9 +90,11 @@ struct LocalReplanOptions {
   /// below. The limits are the problem's.
   TrajectoryOptimizerOptions optimizer = default_optimizer();
   int max_refinements = 3;                 ///< ≥ 0: re-solves after a failed validation
-  /// > 0: CPU time of all Ipopt solves (Ipopt's clock: the process's CPU time). The on-board
-  /// target is a re-plan within 100 ms; past the budget the re-plan fails (kTimeLimit) and the
-  /// agent keeps its validated fallback, so the budget bounds the worst case.
+  /// > 0: CPU time of the calling thread over the whole re-plan (screen, solves, checks), as
+  /// the global planner's budget (core/cpu_clock.hpp): a lock-step flight gives the same
+  /// re-plans on a loaded machine (on board it bounds the wall time while the thread has its core).
+  /// The target is a re-plan within 100 ms; past the budget the re-plan fails (kTimeLimit) and
+  /// the agent keeps its validated fallback, so the budget bounds the worst case.
   double time_budget_s = 0.09;
   TimeParametrizationOptions timing;       ///< control period and turn-radius safety factor
   double validation_terrain_step_m = 2.0;  ///< (0, 5]

@@ -46,6 +46,9 @@ struct Outcome {
   TrajectoryStatus status = TrajectoryStatus::kSolved;
   std::string message;
   std::optional<Solved> solved;
+  /// A failure against a fixed UAV: the one whose rows were violated most (Ipopt's stop) or
+  /// that the last solve came closest to (the dense check); −1 when no other UAV was involved.
+  int blocker = -1;
 };
 
 // p(t) of a piecewise-linear timed path, holding before and after it; `hint` is the segment of
@@ -175,7 +178,8 @@ class UavSolver {
                 fmt::format("{}: Ipopt stopped ({}) in solve {}: {}", g.name,
                             to_string(solve.status), out.solves,
                             where.empty() ? "no violated row" : where),
-                {}};
+                {},
+                most_violated(setup.obstacles, nlp.unpack(solve.x.data()).front())};
       }
       const std::vector<Vec3> waypoints = nlp.unpack(solve.x.data()).front();
       const std::vector<TimedPath> paths = timed_paths(own_.uavs, {waypoints}, team_.dt);
@@ -240,6 +244,10 @@ class UavSolver {
       } else {
         last_problem = !own_check.passed() ? own_check.summary(1) : flown.validation.summary(1);
       }
+      if (!hits.empty())
+        blocker_ = std::min_element(hits.begin(), hits.end(), [](const auto& a, const auto& b) {
+                     return a.distance_m < b.distance_m;
+                   })->other;
       current = waypoints;
       have_previous = true;
       previous_bounds = solve.multipliers;
@@ -251,10 +259,29 @@ class UavSolver {
             fmt::format("{}: every one of {} solve(s) broke a hard constraint in the dense check; "
                         "last: {}",
                         g.name, out.solves, last_problem),
-            {}};
+            {},
+            blocker_};
   }
 
  private:
+  // The other UAV of the obstacle row that `points` miss by the most, or −1 when none misses.
+  static int most_violated(const std::vector<ObstacleRow>& rows, const std::vector<Vec3>& points) {
+    int worst = -1;
+    double miss = 0.0;
+    for (const ObstacleRow& r : rows) {
+      const std::size_t k = static_cast<std::size_t>(r.k);
+      const Vec3 q = r.tau > 0.0 ? Vec3((1.0 - r.tau) * points[k] + r.tau * points[k + 1]) : points[k];
+      const Vec3 ab = r.b_m - r.a_m;
+      const double s = ab.squaredNorm() > 0.0 ? std::clamp((q - r.a_m).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      const double m = r.min_distance_m - (q - (r.a_m + s * ab)).norm();
+      if (m > miss) {
+        miss = m;
+        worst = r.source;
+      }
+    }
+    return worst;
+  }
+
   // Obstacle rows where `points` come within the prefilter of another UAV's reference.
   std::vector<ObstacleRow> obstacle_rows(const std::vector<std::pair<int, const Solved*>>& others,
                                          const std::vector<Vec3>& points) {
@@ -337,6 +364,7 @@ class UavSolver {
   double reach_ = 0.0;
   std::map<std::pair<int, int>, std::pair<int, double>> refinement_;  // (other, step) → samples, extra
   std::set<std::pair<int, int>> with_rows_;  // (other, step) that had obstacle rows: kept
+  int blocker_ = -1;  // the nearest other UAV of the last dense check that failed on separation
 };
 
 // Earlier UAVs (in `order`) whose guesses come within `distance_m` of each UAV's at equal times.
@@ -398,9 +426,11 @@ Outcome solve_uav(const TrajectoryProblem& problem, const TrajectoryOptimizerOpt
   if (first.solved || first.status == TrajectoryStatus::kTimeLimit || others.empty()) return first;
   const GridUav moved = guess_around(problem, options, team, i, others);
   Outcome second = UavSolver(problem, options, team, i, &moved).solve(others, meter);
-  if (!second.solved)
+  if (!second.solved) {
     second.message = first.message + "; again from a guess moved away from the others: " +
                      second.message;
+    if (second.blocker < 0) second.blocker = first.blocker;
+  }
   return second;
 }
 
@@ -426,56 +456,9 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     return team.uavs[a].segments() < team.uavs[b].segments();
   });
-  const std::vector<std::vector<int>> deps = couplings(team, order, options.coupling_distance_m);
 
-  // Workers take the first UAV in order whose couplings are solved.
   std::vector<std::optional<Solved>> solved(n);
-  std::vector<char> started(n, 0);
-  std::mutex mutex;
-  std::condition_variable changed;
-  std::optional<Outcome> failure;
-  int finished = 0;
   bool any_refined = false;
-  auto worker = [&] {
-    CpuMeter meter(budget);
-    std::unique_lock lock(mutex);
-    while (true) {
-      int next = -1;
-      bool waiting = false;
-      for (int i : order) {
-        if (started[i]) continue;
-        if (std::all_of(deps[i].begin(), deps[i].end(), [&](int j) { return solved[j].has_value(); })) {
-          next = i;
-          break;
-        }
-        waiting = true;
-      }
-      if (failure || finished == n || (next < 0 && !waiting)) return;
-      if (next < 0) {
-        changed.wait(lock);
-        continue;
-      }
-      started[next] = 1;
-      std::vector<std::pair<int, const Solved*>> others;
-      for (int j : deps[next]) others.emplace_back(j, &*solved[j]);
-      lock.unlock();
-      Outcome outcome = solve_uav(problem, options, team, next, others, meter);
-      lock.lock();
-      if (!outcome.solved) {
-        if (!failure) failure = std::move(outcome);
-      } else {
-        any_refined = any_refined || outcome.status == TrajectoryStatus::kSolvedAfterRefinement;
-        solved[next] = std::move(outcome.solved);
-        ++finished;
-      }
-      changed.notify_all();
-    }
-  };
-  const int threads = std::clamp(options.threads, 1, std::max(1, n));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
   auto tally = [&] {
     result.ipopt_iterations = result.solves = result.variables = result.constraints =
         result.separation_rows = result.feasible_stops = 0;
@@ -491,16 +474,100 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
       result.feasible_stops += s->feasible_stop ? 1 : 0;
     }
   };
+  const std::vector<std::vector<int>> deps = couplings(team, order, options.coupling_distance_m);
+  std::vector<int> rank(n);
+  for (int a = 0; a < n; ++a) rank[order[a]] = a;
+
+  // Workers take the first UAV in order whose couplings are solved. A UAV that cannot be solved
+  // against an earlier one (its route or its hold boxed in by that one's reference: Ipopt
+  // stops infeasible, or every refinement is still too close) is solved again without that
+  // blocker — it takes priority over it — and the blocker yields: the repair below re-solves it
+  // against every other UAV. A failure does not stop the other workers (short of the time
+  // budget): every UAV that does not depend on a failed one is solved, so the failure reported
+  // is the first in order whatever the thread count and timing.
+  std::vector<char> state(n, 0);  // 0 open, 1 taken, 2 blocked by a failed coupling
+  std::map<int, Outcome> failures;
+  std::set<std::pair<int, int>> yields;  // (blocker, the UAV that took priority over it)
+  bool out_of_time = false;
+  std::mutex mutex;
+  std::condition_variable changed;
+  auto worker = [&] {
+    CpuMeter meter(budget);
+    std::unique_lock lock(mutex);
+    while (true) {
+      int next = -1;
+      bool waiting = false;
+      for (int i : order) {
+        if (state[i] != 0) continue;
+        bool ready = true, blocked = false;
+        for (int j : deps[i]) {
+          blocked = blocked || failures.count(j) != 0 || state[j] == 2;
+          ready = ready && solved[j].has_value();
+        }
+        if (blocked) {
+          state[i] = 2;
+        } else if (ready) {
+          next = i;
+          break;
+        } else {
+          waiting = true;
+        }
+      }
+      if (out_of_time || (next < 0 && !waiting)) return;
+      if (next < 0) {
+        changed.wait(lock);
+        continue;
+      }
+      state[next] = 1;
+      std::vector<std::pair<int, const Solved*>> others;
+      for (int j : deps[next]) others.emplace_back(j, &*solved[j]);
+      lock.unlock();
+      Outcome outcome = solve_uav(problem, options, team, next, others, meter);
+      std::vector<int> passed;  // blockers this UAV took priority over
+      for (int swap = 0; !outcome.solved && outcome.status != TrajectoryStatus::kTimeLimit &&
+                         outcome.blocker >= 0 && swap < options.max_priority_swaps;
+           ++swap) {
+        const int blocker = outcome.blocker;
+        passed.push_back(blocker);
+        std::erase_if(others, [&](const auto& o) { return o.first == blocker; });
+        Outcome again = solve_uav(problem, options, team, next, others, meter);
+        if (!again.solved) again.message = outcome.message + "; without " +
+                                           team.uavs[static_cast<std::size_t>(blocker)].name +
+                                           ": " + again.message;
+        outcome = std::move(again);
+      }
+      lock.lock();
+      if (!outcome.solved) {
+        out_of_time = out_of_time || outcome.status == TrajectoryStatus::kTimeLimit;
+        failures.emplace(next, std::move(outcome));
+      } else {
+        any_refined = any_refined || !passed.empty() ||
+                      outcome.status == TrajectoryStatus::kSolvedAfterRefinement;
+        for (int b : passed) yields.insert({b, next});
+        solved[next] = std::move(outcome.solved);
+      }
+      changed.notify_all();
+    }
+  };
+  const int threads = std::clamp(options.threads, 1, std::max(1, n));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
   tally();
-  if (failure) return fail(failure->status, failure->message);
+  result.priority_swaps = static_cast<int>(yields.size());
+  if (!failures.empty()) {
+    const auto first = std::min_element(failures.begin(), failures.end(), [&](const auto& a, const auto& b) {
+      return rank[a.first] < rank[b.first];
+    });
+    return fail(first->second.status, first->second.message);
+  }
 
   // The whole team, every pair: UAVs that were not coupled by their guesses may still meet; the
   // later one is re-solved against all the others.
   PlanValidationOptions validation;
   validation.terrain_step_m = options.validation_terrain_step_m;
   validation.separation_period_s = options.validation_separation_period_s;
-  std::vector<int> rank(n);
-  for (int a = 0; a < n; ++a) rank[order[a]] = a;
   CpuMeter repair_meter(budget);
   for (int repair = 0;; ++repair) {
     std::vector<TimedPath> flown;
@@ -513,8 +580,11 @@ TrajectoryResult optimize_in_priority_order(const TrajectoryProblem& problem,
     std::vector<int> redo;
     for (const PlanViolation& v : result.validation.violations) {
       if (v.kind != ViolationKind::kSeparation) return fail(TrajectoryStatus::kValidationFailed, v.description);
-      const int later = rank[v.uav] > rank[v.other_uav] ? v.uav : v.other_uav;
-      if (std::find(redo.begin(), redo.end(), later) == redo.end()) redo.push_back(later);
+      // The later one, or the blocker that yielded to the other (above).
+      int again = rank[v.uav] > rank[v.other_uav] ? v.uav : v.other_uav;
+      if (yields.count({v.uav, v.other_uav}) != 0) again = v.uav;
+      if (yields.count({v.other_uav, v.uav}) != 0) again = v.other_uav;
+      if (std::find(redo.begin(), redo.end(), again) == redo.end()) redo.push_back(again);
     }
     if (repair >= options.max_refinements)
       return fail(TrajectoryStatus::kValidationFailed,

@@ -21,6 +21,14 @@
 // not depend on which other UAVs happen to be finished. options.threads workers take the first
 // UAV in order whose dependencies are done, so uncoupled UAVs are solved at the same time.
 //
+// Priority swaps. A UAV that cannot be solved against an earlier one — its route or its hold
+// at the target boxed in by that UAV's reference, so Ipopt stops infeasible or every
+// refinement is still too close — is solved again without that blocker (it takes priority,
+// at most max_priority_swaps blockers a UAV), and the blocker yields: the team check below
+// re-solves it, not the later UAV, against every other. A failure does not stop the pass:
+// every UAV that does not depend on a failed one is solved and the first failure in order is
+// reported, so the result does not depend on the threads.
+//
 // Validation. Each UAV's solution is timed as it will be flown (time_parametrize_timed) and
 // checked densely like the joint one (terrain every ≤ 5 m, the band, its pitch and climb) and
 // its reference against its obstacles' references at every control period; a violation refines

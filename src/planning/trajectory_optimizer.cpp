@@ -62,6 +62,7 @@ std::string check_options(const TrajectoryOptimizerOptions& o) {
   if (o.iterations_per_uav < 0) return bad("iterations_per_uav", "must be >= 0");
   if (o.max_refinements < 0) return bad("max_refinements", "must be >= 0");
   if (o.uav_max_refinements < 0) return bad("uav_max_refinements", "must be >= 0");
+  if (o.max_priority_swaps < 0) return bad("max_priority_swaps", "must be >= 0");
   if (!(o.time_budget_s > 0.0)) return bad("time_budget_s", "must be > 0");
   if (o.lbfgs_history < 1) return bad("lbfgs_history", "must be >= 1");
   if (o.joint_max_uavs < 1) return bad("joint_max_uavs", "must be >= 1");

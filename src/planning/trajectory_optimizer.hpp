@@ -227,6 +227,9 @@ struct TrajectoryOptimizerOptions {
   /// The decomposition's re-solves of one UAV (its NLP is small, a round cheap): each round
   /// may meet another of the fixed references its last solve moved next to (100 UAVs: up to 6).
   int uav_max_refinements = 8;
+  /// ≥ 0: per UAV, the earlier UAVs it may take priority over when it cannot be solved against
+  /// them (each then yields: re-solved against the whole team; priority_decomposition.hpp).
+  int max_priority_swaps = 2;
   /// CPU seconds of the optimizing threads (core/cpu_clock.hpp, CpuBudget): setup, solves and
   /// checks; the same plan on a loaded machine. Running out is kTimeLimit, never another plan.
   double time_budget_s = 20.0;
@@ -313,6 +316,9 @@ struct TrajectoryResult {
   /// Decomposed: UAVs whose last solve stopped at Ipopt's iteration limit and whose iterate then
   /// passed the dense check (validated, not proved optimal).
   int feasible_stops = 0;
+  /// Decomposed: pairs where a UAV took priority over the earlier one it could not be solved
+  /// against (which then yielded).
+  int priority_swaps = 0;
   int ipopt_iterations = 0;  ///< over all solves
   int solves = 0;            ///< 1 + refinement rounds used
   int variables = 0;         ///< of the last NLP (including fixed waypoints)

@@ -53,6 +53,41 @@ TEST(PriorityDecomposition, TwoUavsCrossingAtTheSameTimeAreKeptApart) {
   EXPECT_GE(check.min_separation_m, problem.limits.separation_m);
 }
 
+TEST(PriorityDecomposition, AUavBoxedInByAnEarlierOneTakesPriorityAndTheOtherYields) {
+  // Flat ground. "fast" (first in order: same grid, lower index) flies east through the start
+  // of "slow", a sluggish vehicle heading west: 100 m apart, closing at ~13 m/s, and slow can
+  // move neither 10.5 m sideways (R_min 80 m) nor up (0.5 m/s) in the ~8 s before they meet,
+  // so against fast's fixed reference it has no solution. Fast can dodge it: slow takes
+  // priority and fast yields (re-solved against slow).
+  world::PeakTerrainConfig flat;
+  flat.peaks = {{5000.0, 5000.0, 10.0, 100.0, 100.0}};
+  const world::PeakTerrain terrain(flat);
+  TrajectoryProblem problem;
+  problem.terrain = &terrain;
+  const Vec3 fast0(0, 400, 60), fast1(400, 400, 60), slow0(100, 400, 60), slow1(-800, 400, 60);
+  problem.uavs.push_back({"fast", lifted_line(terrain, fast0, fast1), {}, {}});
+  vehicle::VehicleParams sluggish;
+  sluggish.cruise_speed_m_s = 4.0;
+  sluggish.speed_band_m_s = 1.0;
+  sluggish.min_turn_radius_m = 80.0;
+  sluggish.max_climb_rate_m_s = 0.5;
+  problem.uavs.push_back({"slow", lifted_line(terrain, slow0, slow1), {}, sluggish});
+  TrajectoryOptimizerOptions o;
+  o.waypoints_per_uav = 60;
+  o.decomposition = TeamDecomposition::kPriority;
+  const TrajectoryResult r = optimize_trajectories(problem, o);
+  ASSERT_TRUE(r.ok()) << to_string(r.status) << ": " << r.message;
+  EXPECT_EQ(r.priority_swaps, 1);
+  const PlanValidationReport check = check_flown_references(terrain, r, problem.limits);
+  EXPECT_TRUE(check.passed()) << check.summary();
+  EXPECT_GE(check.min_separation_m, problem.limits.separation_m);
+  // Without the swap the plan fails, naming the two.
+  o.max_priority_swaps = 0;
+  const TrajectoryResult fixed_order = optimize_trajectories(problem, o);
+  EXPECT_FALSE(fixed_order.ok());
+  EXPECT_NE(fixed_order.message.find("slow"), std::string::npos) << fixed_order.message;
+}
+
 TEST(PriorityDecomposition, ATeamIsValidatedAndTheSameOnOneOrTwoThreads) {
   const world::PeakTerrain terrain = default_like_terrain();
   const TrajectoryProblem problem = straight_line_team(terrain, 8);
