@@ -358,8 +358,8 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
     const double model_error = env.terrain->model_error_m();
     for (int j = 0; j < np_; ++j) {
       const Vec3 pbar = nominal_positions_.col(j);
-      const double h = env.terrain->height(pbar.x(), pbar.y());
-      const Vec2 g = env.terrain->gradient(pbar.x(), pbar.y());
+      Vec2 g;
+      const double h = env.terrain->height_and_gradient(pbar.x(), pbar.y(), g);
       const double required = limits_.terrain_clearance_m + margin(j) + model_error;
       if (pbar.z() - h - required > activation) continue;
       // z − ∇H·(p − p̄)_xy ≥ H(p̄) + h_safe + m_j + e_H
