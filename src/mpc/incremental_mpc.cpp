@@ -549,8 +549,8 @@ void IncrementalMpc::build_cost() {
   // ΦᵀQ̄Φ = Σ_r q_r φ_r φ_rᵀ over the rows r of Φ, and a row is nonzero only inside its
   // output's span: for the UAV the x and y rows in the 20 columns of the speed and turn
   // moves, the z rows in the 10 of the climb moves (a third of the flops of the dense
-  // product). The lower triangle of a span is summed in 4 × 4 tiles, each tile's sixteen sums
-  // kept in four vector registers over all the rows of the span and stored once; the columns
+  // product). The lower triangle of a span is summed in 4 × 8 and 4 × 4 tiles, each tile's
+  // sums kept in vector registers over all the rows of the span and stored once; the columns
   // past the last multiple of four are summed entry by entry. Sums run in Φ's column order
   // and are moved to the QP's (move, then input) at the end.
   Hp_.setZero();
@@ -571,8 +571,37 @@ void IncrementalMpc::build_cost() {
       for (int a = 0; a < size; ++a) f[a] += e * p[a];
     }
     for (int a0 = 0; a0 < full; a0 += 4) {
-      for (int b0 = 0; b0 <= a0; b0 += 4) {
-        // acc_i[j] = Σ_r q_r φ_r(a0 + i) φ_r(b0 + j): a vector of four b's for each a.
+      int b0 = 0;
+      for (; b0 + 8 <= a0 + 4; b0 += 8) {
+        // A 4 × 8 tile: acc_i = Σ_r q_r φ_r(a0 + i) φ_r(b0 .. b0 + 7), eight independent sums
+        // (the latency of one fused multiply-add chain would bound four).
+        Vec4 lo0 = {}, lo1 = {}, lo2 = {}, lo3 = {}, hi0 = {}, hi1 = {}, hi2 = {}, hi3 = {};
+        for (int n = begin; n < end; ++n) {
+          const int r = rows[n];
+          const double* p = phi + r * ld + lo;
+          const double q = qdiag_[r];
+          Vec4 pl, ph;
+          std::memcpy(&pl, p + b0, sizeof pl);
+          std::memcpy(&ph, p + b0 + 4, sizeof ph);
+          const double c0 = q * p[a0], c1 = q * p[a0 + 1], c2 = q * p[a0 + 2], c3 = q * p[a0 + 3];
+          lo0 += c0 * pl;
+          hi0 += c0 * ph;
+          lo1 += c1 * pl;
+          hi1 += c1 * ph;
+          lo2 += c2 * pl;
+          hi2 += c2 * ph;
+          lo3 += c3 * pl;
+          hi3 += c3 * ph;
+        }
+        const Vec4* acc[4][2] = {{&lo0, &hi0}, {&lo1, &hi1}, {&lo2, &hi2}, {&lo3, &hi3}};
+        for (int i = 0; i < 4; ++i) {
+          double* h = Hp_.data() + (lo + a0 + i) * hld + lo + b0;
+          for (int j = 0; j < 4; ++j) h[j] += (*acc[i][0])[j];
+          for (int j = 0; j < 4; ++j) h[4 + j] += (*acc[i][1])[j];
+        }
+      }
+      for (; b0 <= a0; b0 += 4) {
+        // A 4 × 4 tile: acc_i[j] = Σ_r q_r φ_r(a0 + i) φ_r(b0 + j).
         Vec4 acc0 = {}, acc1 = {}, acc2 = {}, acc3 = {};
         for (int n = begin; n < end; ++n) {
           const int r = rows[n];
@@ -602,20 +631,16 @@ void IncrementalMpc::build_cost() {
       }
     }
   }
-  // H_uu in the QP's order from the lower triangle: entry (a, b) of Φ's order, a ≥ b, is
-  // entry (i_a·n_u + c_a, i_b·n_u + c_b) and its mirror.
   auto Huu = qp_.H.topLeftCorner(nU, nU);
-  for (int a = 0; a < nU; ++a) {
-    const int qa = (a % nc_) * nu_ + a / nc_;
-    qp_.f[qa] = fp_[a];
-    for (int cb = 0, ib = 0, b = 0; b <= a; ++b) {
-      const int qb = ib * nu_ + cb;
-      const double v = 2.0 * Hp_(a, b);
-      Huu(qa, qb) = v;
-      Huu(qb, qa) = v;
-      if (++ib == nc_) {
-        ib = 0;
-        ++cb;
+  for (int cb = 0; cb < nu_; ++cb) {
+    for (int ib = 0; ib < nc_; ++ib) {
+      const int b = cb * nc_ + ib, qb = ib * nu_ + cb;
+      qp_.f[qb] = fp_[b];
+      for (int ca = 0; ca < nu_; ++ca) {
+        for (int ia = 0; ia < nc_; ++ia) {
+          const int a = ca * nc_ + ia;
+          Huu(ia * nu_ + ca, qb) = 2.0 * (a >= b ? Hp_(a, b) : Hp_(b, a));
+        }
       }
     }
   }
