@@ -59,16 +59,19 @@ Vec2 peak_gradient(const Peak& p, double value, double x_m, double y_m) {
               -2.0 * value * (y_m - p.y_m) / (p.sigma_y_m * p.sigma_y_m));
 }
 
-// score[i] = ln h_i − q_i for the peaks [0, n) given as columns: the terrain is read at every
-// predicted position of every MPC step and at every slot-search sample, and this loop is
-// most of a read.
+// score[i] = ln h_i − q_i for the peaks [0, n) given as columns (the reciprocals of the
+// widths, so no division): the terrain is read at every predicted position of every MPC step
+// and at every slot-search sample, and this loop is most of a read. The scores only choose
+// the peak; its value is computed again as before (peak_exponent), so a score's round-off
+// matters only where two peaks tie to round-off.
 RIDGELINE_SIMD_CLONES void peak_scores(const double* __restrict x0, const double* __restrict y0,
-                                       const double* __restrict sx, const double* __restrict sy,
+                                       const double* __restrict inv_sx,
+                                       const double* __restrict inv_sy,
                                        const double* __restrict log_h, int n, double x_m,
                                        double y_m, double* __restrict score) {
   for (int i = 0; i < n; ++i) {
-    const double dx = (x_m - x0[i]) / sx[i];
-    const double dy = (y_m - y0[i]) / sy[i];
+    const double dx = (x_m - x0[i]) * inv_sx[i];
+    const double dy = (y_m - y0[i]) * inv_sy[i];
     score[i] = log_h[i] - (dx * dx + dy * dy);
   }
 }
@@ -99,8 +102,8 @@ PeakTerrain::PeakTerrain(PeakTerrainConfig config, const std::string& path)
     log_height_.push_back(std::log(p.height_m));
     peak_x_.push_back(p.x_m);
     peak_y_.push_back(p.y_m);
-    peak_sigma_x_.push_back(p.sigma_x_m);
-    peak_sigma_y_.push_back(p.sigma_y_m);
+    peak_inv_sigma_x_.push_back(1.0 / p.sigma_x_m);
+    peak_inv_sigma_y_.push_back(1.0 / p.sigma_y_m);
   }
 }
 
@@ -112,9 +115,9 @@ const Peak* PeakTerrain::dominant(double x_m, double y_m, double* value) const {
   double best_score = 0.0;
   for (int begin = 0; begin < n; begin += kBatch) {
     const int count = std::min(kBatch, n - begin);
-    peak_scores(peak_x_.data() + begin, peak_y_.data() + begin, peak_sigma_x_.data() + begin,
-                peak_sigma_y_.data() + begin, log_height_.data() + begin, count, x_m, y_m,
-                score);
+    peak_scores(peak_x_.data() + begin, peak_y_.data() + begin,
+                peak_inv_sigma_x_.data() + begin, peak_inv_sigma_y_.data() + begin,
+                log_height_.data() + begin, count, x_m, y_m, score);
     for (int i = 0; i < count; ++i) {  // ln(h·e); the lowest index on a tie
       if (best < 0 || score[i] > best_score) {
         best = begin + i;

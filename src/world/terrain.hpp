@@ -84,15 +84,15 @@ class PeakTerrain : public Terrain {
   /// For `max`: the dominant peak at (x, y) and its value h·e (nullptr without peaks). It
   /// compares ln h_i − q_i, q_i the exponent, so one exp is taken instead of one per peak; the
   /// same peak as comparing the values h_i·e_i except where two differ by round-off.
-  /// The scores are computed a batch at a time from the columns below (a vector loop); the
-  /// exponent of the chosen peak is then recomputed in scalars, so its value does not depend
-  /// on the vector unit.
+  /// The scores are computed a batch at a time from the columns below (a vector loop, with
+  /// the widths' reciprocals); the exponent of the chosen peak is then computed as in height(),
+  /// so the value does not depend on that loop's round-off.
   const Peak* dominant(double x_m, double y_m, double* value) const;
 
   PeakTerrainConfig config_;
   std::vector<double> log_height_;  ///< ln h_i
   // The peaks' fields as columns, for dominant()'s vector loop.
-  std::vector<double> peak_x_, peak_y_, peak_sigma_x_, peak_sigma_y_;
+  std::vector<double> peak_x_, peak_y_, peak_inv_sigma_x_, peak_inv_sigma_y_;
 };
 
 /// A raster terrain: bilinear interpolation of a RasterGrid (see raster_grid.hpp for the
