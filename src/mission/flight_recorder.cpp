@@ -36,7 +36,8 @@ void FlightRecorder::control_step(int i, double t, const TruthWorld& world,
   if (!r.finished) {
     if (r.has_tracker) {
       step_us_.push_back(r.mpc_step_us);
-      step_cpu_us_.push_back(r.mpc_step_cpu_us);
+      // A tracker may read the CPU clock on some steps only (NaN on the others).
+      if (!std::isnan(r.mpc_step_cpu_us)) step_cpu_us_.push_back(r.mpc_step_cpu_us);
       iterations_.push_back(r.qp_iterations);
     } else if (r.step_time_us >= 0.0) {
       step_us_.push_back(r.step_time_us);

@@ -113,6 +113,10 @@ struct UavTrackerOptions {
   /// (at 1e-9 it stalled on some threat-avoidance QPs). The 50 Hz step uses the hot-started
   /// active-set method (exact vertices; the interior point is its fallback).
   qp::QpSettings qp_settings{.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};
+  /// The step's thread CPU time (step_cpu_time_us) is read on every this many steps, the
+  /// others report NaN: the thread CPU clock is a system call (no vDSO), two of them about
+  /// 2 µs a step on a virtual machine, 5 % of a simulated flight. ≥ 1.
+  int cpu_time_period_steps = 1;
 };
 
 /// Throws ridgeline::InputError naming the field (e.g. `prediction_step_s`) and the reason.
@@ -155,7 +159,8 @@ struct UavTrackerResult {
   double step_time_us = 0.0;  ///< the whole step: history, linearization, rows, solve
   UavTrackerStepParts parts;  ///< step_time_us split; the parts sum to it
   /// The same step in this thread's CPU time: without the time a shared machine's other
-  /// processes held the core, which the wall-clock figure includes.
+  /// processes held the core, which the wall-clock figure includes. NaN on the steps
+  /// UavTrackerOptions::cpu_time_period_steps leaves unmeasured.
   double step_cpu_time_us = 0.0;
   /// Predicted positions (3×Np) at times prediction_time_s(j) = t + (j+1)Δt_p, and states.
   MatX predicted_positions_m;
@@ -220,6 +225,7 @@ class UavTracker {
   std::vector<HistoryEntry> history_;  // ring buffer
   int history_head_ = 0;               // index of the newest entry
   int history_size_ = 0;
+  long long steps_ = 0;  // calls of step(), for cpu_time_period_steps
   vehicle::Input previous_command_ = vehicle::Input::Zero();
   bool have_previous_command_ = false;
 

@@ -401,17 +401,21 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
       const double ground = terrain_->height(r.x(), r.y());
       for (std::size_t c = 0; c < nl; ++c) {
         const double z = r.z() + level_of(levels_[c], tau);
-        bool ok = z >= ground + limits_.terrain_clearance_m + options_.level_terrain_margin_m &&
-                  z >= limits_.altitude.min_m + options_.level_terrain_margin_m &&
-                  z <= limits_.altitude.max_m - options_.level_terrain_margin_m;
-        // A target is inspected inside its altitude band: a level must not lift the UAV out.
-        for (std::size_t k = static_cast<std::size_t>(next_target_); ok && k < options_.targets.size(); ++k) {
-          const AgentTarget& target_k = options_.targets[k];
-          if ((r.head<2>() - target_k.position_m.head<2>()).norm() <= target_k.radius_m)
-            ok = std::abs(z - target_k.position_m.z()) <=
-                 std::max(0.0, target_k.altitude_band_m - kTargetBandMargin);
-        }
+        const bool ok = z >= ground + limits_.terrain_clearance_m + options_.level_terrain_margin_m &&
+                        z >= limits_.altitude.min_m + options_.level_terrain_margin_m &&
+                        z <= limits_.altitude.max_m - options_.level_terrain_margin_m;
         if (!ok) feasible_[d * nl + c] = 0;
+      }
+      // A target is inspected inside its altitude band: a level must not lift the UAV out.
+      // (Whether the sample is over a target does not depend on the level: tested once.)
+      for (std::size_t k = static_cast<std::size_t>(next_target_); k < options_.targets.size(); ++k) {
+        const AgentTarget& target_k = options_.targets[k];
+        if ((r.head<2>() - target_k.position_m.head<2>()).norm() > target_k.radius_m) continue;
+        const double band = std::max(0.0, target_k.altitude_band_m - kTargetBandMargin);
+        for (std::size_t c = 0; c < nl; ++c) {
+          const double z = r.z() + level_of(levels_[c], tau);
+          if (std::abs(z - target_k.position_m.z()) > band) feasible_[d * nl + c] = 0;
+        }
       }
       for (int k = 0; k < yielded; ++k) {
         const Vec3& q = yielded_positions_[static_cast<std::size_t>(k * samples + i)];

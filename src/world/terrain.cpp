@@ -8,8 +8,14 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/simd_clones.hpp"
 
 namespace ridgeline::world {
+
+double Terrain::height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const {
+  gradient_out = gradient(x_m, y_m);
+  return height(x_m, y_m);
+}
 
 Eigen::Matrix2d Terrain::hessian(double x_m, double y_m) const {
   // The peaks' widths and raster cells are tens of metres or more, so truncation (∝ h²) and
@@ -53,6 +59,23 @@ Vec2 peak_gradient(const Peak& p, double value, double x_m, double y_m) {
               -2.0 * value * (y_m - p.y_m) / (p.sigma_y_m * p.sigma_y_m));
 }
 
+// score[i] = ln h_i − q_i for the peaks [0, n) given as columns (the reciprocals of the
+// widths, so no division): the terrain is read at every predicted position of every MPC step
+// and at every slot-search sample, and this loop is most of a read. The scores only choose
+// the peak; its value is computed again as before (peak_exponent), so a score's round-off
+// matters only where two peaks tie to round-off.
+RIDGELINE_SIMD_CLONES void peak_scores(const double* __restrict x0, const double* __restrict y0,
+                                       const double* __restrict inv_sx,
+                                       const double* __restrict inv_sy,
+                                       const double* __restrict log_h, int n, double x_m,
+                                       double y_m, double* __restrict score) {
+  for (int i = 0; i < n; ++i) {
+    const double dx = (x_m - x0[i]) * inv_sx[i];
+    const double dy = (y_m - y0[i]) * inv_sy[i];
+    score[i] = log_h[i] - (dx * dx + dy * dy);
+  }
+}
+
 }  // namespace
 
 void validate_peak_terrain_config(const PeakTerrainConfig& config, const std::string& path) {
@@ -75,24 +98,40 @@ void validate_peak_terrain_config(const PeakTerrainConfig& config, const std::st
 PeakTerrain::PeakTerrain(PeakTerrainConfig config, const std::string& path)
     : config_(std::move(config)) {
   validate_peak_terrain_config(config_, path);
-  for (const Peak& p : config_.peaks) log_height_.push_back(std::log(p.height_m));
+  for (const Peak& p : config_.peaks) {
+    log_height_.push_back(std::log(p.height_m));
+    peak_x_.push_back(p.x_m);
+    peak_y_.push_back(p.y_m);
+    peak_inv_sigma_x_.push_back(1.0 / p.sigma_x_m);
+    peak_inv_sigma_y_.push_back(1.0 / p.sigma_y_m);
+  }
 }
 
 const Peak* PeakTerrain::dominant(double x_m, double y_m, double* value) const {
-  const Peak* best = nullptr;
+  constexpr int kBatch = 32;  // scores on the stack: no allocation, any number of peaks
+  double score[kBatch];
+  const int n = static_cast<int>(config_.peaks.size());
+  int best = -1;
   double best_score = 0.0;
-  double best_exponent = 0.0;
-  for (std::size_t i = 0; i < config_.peaks.size(); ++i) {
-    const double q = peak_exponent(config_.peaks[i], x_m, y_m);
-    const double score = log_height_[i] - q;  // ln(h·e)
-    if (best == nullptr || score > best_score) {
-      best = &config_.peaks[i];
-      best_score = score;
-      best_exponent = q;
+  for (int begin = 0; begin < n; begin += kBatch) {
+    const int count = std::min(kBatch, n - begin);
+    peak_scores(peak_x_.data() + begin, peak_y_.data() + begin,
+                peak_inv_sigma_x_.data() + begin, peak_inv_sigma_y_.data() + begin,
+                log_height_.data() + begin, count, x_m, y_m, score);
+    for (int i = 0; i < count; ++i) {  // ln(h·e); the lowest index on a tie
+      if (best < 0 || score[i] > best_score) {
+        best = begin + i;
+        best_score = score[i];
+      }
     }
   }
-  *value = best == nullptr ? 0.0 : best->height_m * std::exp(-best_exponent);
-  return best;
+  if (best < 0) {
+    *value = 0.0;
+    return nullptr;
+  }
+  const Peak& p = config_.peaks[static_cast<std::size_t>(best)];
+  *value = p.height_m * std::exp(-peak_exponent(p, x_m, y_m));
+  return &p;
 }
 
 double PeakTerrain::height(double x_m, double y_m) const {
@@ -115,6 +154,22 @@ Vec2 PeakTerrain::gradient(double x_m, double y_m) const {
   const Peak* peak = dominant(x_m, y_m, &value);
   if (peak != nullptr) g = peak_gradient(*peak, value, x_m, y_m);
   return g;
+}
+
+double PeakTerrain::height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const {
+  // The same sums as height() and gradient(), each peak's value taken once.
+  double field = 0.0;
+  gradient_out = Vec2::Zero();
+  if (config_.combination == PeakCombination::kSum) {
+    for (const Peak& p : config_.peaks) {
+      const double v = peak_value(p, x_m, y_m);
+      field += v;
+      gradient_out += peak_gradient(p, v, x_m, y_m);
+    }
+  } else if (const Peak* peak = dominant(x_m, y_m, &field)) {
+    gradient_out = peak_gradient(*peak, field, x_m, y_m);
+  }
+  return config_.base_elevation_m + field;
 }
 
 RasterTerrain::RasterTerrain(RasterGrid grid, double model_error_m, const std::string& what)

@@ -22,6 +22,10 @@ class Terrain {
   virtual double height(double x_m, double y_m) const = 0;
   /// Gradient (dH/dx, dH/dy), dimensionless (m/m).
   virtual Vec2 gradient(double x_m, double y_m) const = 0;
+  /// Height and gradient at one point, equal to height() and gradient(): for the MPC's
+  /// clearance rows, which need both at every predicted position of every step. The default
+  /// calls the two; a model that finds both from the same work overrides it.
+  virtual double height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const;
   /// Hessian of H (1/m). The default is central differences of gradient() at 1 mm, symmetrized;
   /// a model with an analytic one overrides it.
   virtual Eigen::Matrix2d hessian(double x_m, double y_m) const;
@@ -70,6 +74,8 @@ class PeakTerrain : public Terrain {
 
   double height(double x_m, double y_m) const override;
   Vec2 gradient(double x_m, double y_m) const override;
+  /// One pass over the peaks (one dominant-peak search for `max`).
+  double height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const override;
   double model_error_m() const override { return config_.model_error_m; }
 
   const PeakTerrainConfig& config() const { return config_; }
@@ -78,10 +84,15 @@ class PeakTerrain : public Terrain {
   /// For `max`: the dominant peak at (x, y) and its value h·e (nullptr without peaks). It
   /// compares ln h_i − q_i, q_i the exponent, so one exp is taken instead of one per peak; the
   /// same peak as comparing the values h_i·e_i except where two differ by round-off.
+  /// The scores are computed a batch at a time from the columns below (a vector loop, with
+  /// the widths' reciprocals); the exponent of the chosen peak is then computed as in height(),
+  /// so the value does not depend on that loop's round-off.
   const Peak* dominant(double x_m, double y_m, double* value) const;
 
   PeakTerrainConfig config_;
   std::vector<double> log_height_;  ///< ln h_i
+  // The peaks' fields as columns, for dominant()'s vector loop.
+  std::vector<double> peak_x_, peak_y_, peak_inv_sigma_x_, peak_inv_sigma_y_;
 };
 
 /// A raster terrain: bilinear interpolation of a RasterGrid (see raster_grid.hpp for the

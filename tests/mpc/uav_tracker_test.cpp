@@ -457,6 +457,39 @@ TEST(UavTracker, PredictionAgreesWithNonlinearEulerRollout) {
   std::printf("prediction vs Euler rollout: max %.3f m\n", max_diff);
 }
 
+// cpu_time_period_steps = 3 reads the CPU clock on steps 0, 3, 6, ... only: those report a
+// CPU time (≥ 0), the others NaN; the commands are those of a tracker timing every step (the
+// clock is not an input).
+TEST(UavTracker, CpuTimePeriodTimesEveryNthStepOnly) {
+  const HelixReference ref = circle_150m();
+  UavTrackerOptions every;
+  UavTrackerOptions third;
+  third.cpu_time_period_steps = 3;
+  UavTracker a(every, world::SafetyLimits{});
+  UavTracker b(third, world::SafetyLimits{});
+  const State s = state_on(ref.at(0.0));
+  const Vec3 wind(1.0, 0.0, 0.0);
+  for (int k = 0; k < 10; ++k) {
+    const double t = k * kControlPeriod;
+    const UavTrackerResult& ra = a.step(t, s, wind, ref, TrackerEnvironment{});
+    const UavTrackerResult& rb = b.step(t, s, wind, ref, TrackerEnvironment{});
+    EXPECT_GE(ra.step_cpu_time_us, 0.0);
+    if (k % 3 == 0) {
+      EXPECT_GE(rb.step_cpu_time_us, 0.0) << k;
+    } else {
+      EXPECT_TRUE(std::isnan(rb.step_cpu_time_us)) << k;
+    }
+    EXPECT_EQ(ra.command, rb.command) << k;
+  }
+  third.cpu_time_period_steps = 0;
+  try {
+    UavTracker bad(third, world::SafetyLimits{});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "cpu_time_period_steps");
+  }
+}
+
 TEST(UavTrackerOptionsCheck, RejectsBadOptionsNamingTheField) {
   UavTrackerOptions o;
   o.prediction_step_s = 0.0;

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <vector>
 
 #include "core/error.hpp"
 #include "core/random.hpp"
@@ -114,6 +116,39 @@ TEST(PeakTerrainTest, MaxFieldMatchesBruteForceOverAllPeaks) {
     ++compared;
   }
   EXPECT_GT(compared, 4900);
+}
+
+// height_and_gradient is what the MPC's clearance rows read: it must equal height() and
+// gradient() bit for bit, for both combinations, for more peaks than one batch of the
+// dominant-peak search (32), on a raster (the default of the interface) and with no peaks.
+TEST(PeakTerrainTest, HeightAndGradientEqualTheSeparateQueries) {
+  Rng rng(23);
+  PeakTerrainConfig many;
+  many.base_elevation_m = 7.0;
+  for (int i = 0; i < 70; ++i)
+    many.peaks.push_back({rng.uniform(0, 3000), rng.uniform(0, 3000), rng.uniform(1, 400),
+                          rng.uniform(20, 400), rng.uniform(20, 400)});
+  std::vector<std::unique_ptr<Terrain>> terrains;
+  for (const auto combination : {PeakCombination::kMax, PeakCombination::kSum}) {
+    many.combination = combination;
+    terrains.push_back(std::make_unique<PeakTerrain>(many));
+  }
+  terrains.push_back(std::make_unique<PeakTerrain>(PeakTerrainConfig{}));
+  terrains.push_back(std::make_unique<RasterTerrain>(
+      sample_terrain(*terrains.front(), 30, 30, Vec2(0, 0), Vec2(100, 100))));
+  int with_slope = 0;
+  for (const auto& terrain : terrains) {
+    for (int k = 0; k < 2000; ++k) {
+      const double x = rng.uniform(-500, 3500);
+      const double y = rng.uniform(-500, 3500);
+      Vec2 g(1.0, 1.0);
+      const double h = terrain->height_and_gradient(x, y, g);
+      EXPECT_EQ(h, terrain->height(x, y)) << x << ", " << y;
+      EXPECT_EQ(g, terrain->gradient(x, y)) << x << ", " << y;
+      with_slope += g.norm() > 1e-3 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(with_slope, 4000);  // the peaks' flanks, not only the flat base
 }
 
 TEST(PeakTerrainTest, RejectsBadConfigNamingTheField) {
