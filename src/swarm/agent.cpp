@@ -48,9 +48,10 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
       terrain_(std::move(terrain)),
       reference_(std::make_shared<AgentReference>(std::move(plan))),
       tracker_(options.tracker, limits),
-      guard_(options.separation_guard, options.tracker.vehicle,
-             Vec3(options.tracker.max_speed_cmd_rate_m_s2, options.tracker.max_turn_cmd_rate_rad_s2,
-                  options.tracker.max_climb_cmd_rate_m_s2)) {
+      command_rate_(options.tracker.max_speed_cmd_rate_m_s2,
+                    options.tracker.max_turn_cmd_rate_rad_s2,
+                    options.tracker.max_climb_cmd_rate_m_s2),
+      guard_(options.separation_guard, options.tracker.vehicle, command_rate_) {
   require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
   require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
@@ -595,12 +596,10 @@ vehicle::Input Agent::fallback_command(double t_s, const vehicle::State& state) 
 vehicle::Input Agent::rate_limited(const vehicle::Input& target,
                                    const vehicle::State& state) const {
   // Rate limits of one control period, as the tracker obeys them.
-  const double T = options_.tracker.control_period_s;
-  const Vec3 rate(options_.tracker.max_speed_cmd_rate_m_s2, options_.tracker.max_turn_cmd_rate_rad_s2,
-                  options_.tracker.max_climb_cmd_rate_m_s2);
+  const Vec3 step_max = command_rate_ * options_.tracker.control_period_s;
   vehicle::Input u = target;
   for (int k = 0; k < 3; ++k)
-    u[k] = std::clamp(u[k], last_command_[k] - rate[k] * T, last_command_[k] + rate[k] * T);
+    u[k] = std::clamp(u[k], last_command_[k] - step_max[k], last_command_[k] + step_max[k]);
   // The climb bound that keeps the pitch limit while the speed falls, as the tracker's.
   const double climb = options_.tracker.vehicle.robust_max_climb_rate_m_s();
   u[2] = std::clamp(u[2], -climb, climb);
@@ -609,9 +608,7 @@ vehicle::Input Agent::rate_limited(const vehicle::Input& target,
 
 vehicle::Input Agent::guard_command(double t_s, const vehicle::State& state,
                                     const vehicle::Input& planned,
-                                    const mpc::UavTrackerResult& r,
-                                    const std::vector<Vec3>*& path) {
-  path = nullptr;
+                                    const mpc::UavTrackerResult& r, FlownPath& path) {
   const SeparationGuardOptions& g = guard_.options();
   GuardInput in;
   in.t_s = t_s;
@@ -621,16 +618,12 @@ vehicle::Input Agent::guard_command(double t_s, const vehicle::State& state,
   in.wind_m_s = wind_estimate_;
   if (mode_ == AgentMode::kFallback) {
     // The fallback's command held: what it will fly, and what the neighbours should see.
-    const Vec3 rate(options_.tracker.max_speed_cmd_rate_m_s2,
-                    options_.tracker.max_turn_cmd_rate_rad_s2,
-                    options_.tracker.max_climb_cmd_rate_m_s2);
-    vehicle::rollout_positions(state, last_command_, planned, rate, wind_estimate_,
+    vehicle::rollout_positions(state, last_command_, planned, command_rate_, wind_estimate_,
                                options_.tracker.vehicle, g.step_s,
                                std::max(1, static_cast<int>(std::round(g.horizon_s / g.step_s))),
                                planned_path_);
     in.planned_start_s = t_s + g.step_s;
     in.planned_step_s = g.step_s;
-    path = &planned_path_;
   } else {
     planned_path_.resize(static_cast<std::size_t>(r.predicted_positions_m.cols()));
     for (Eigen::Index j = 0; j < r.predicted_positions_m.cols(); ++j)
@@ -639,11 +632,12 @@ vehicle::Input Agent::guard_command(double t_s, const vehicle::State& state,
     in.planned_step_s = r.prediction_step_s;
   }
   in.planned_path_m = planned_path_;
+  path = FlownPath{&planned_path_, in.planned_start_s, in.planned_step_s};
   const GuardSurroundings around{neighbour_buffer_, threat_buffer_, terrain_.get(), &limits_};
   const GuardDecision d = guard_.check(in, around);
   if (!d.escape) return planned;
   ++counters_.guard_steps;
-  path = &guard_.escape_path();
+  path = FlownPath{&guard_.escape_path(), t_s + g.step_s, g.step_s};
   const vehicle::Input u = rate_limited(d.command, state);
   if (mode_ == AgentMode::kTracking) tracker_.record_applied_command(u);
   return u;
@@ -717,37 +711,21 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     planned = fallback_command(t_s, measured_state);
     ++counters_.fallback_steps;
   }
-  const std::vector<Vec3>* flown_path = nullptr;
-  out.command = guard_command(t_s, measured_state, planned, r, flown_path);
+  FlownPath flown;
+  out.command = guard_command(t_s, measured_state, planned, r, flown);
   last_command_ = out.command;
   out.mode = mode_;
   out.reference_m = reference_position;
   out.tracker = &r;
   out.max_slack_m = r.max_slack_m();
 
-  if (flown_path != nullptr && !flown_path->empty()) {
-    // The fallback's or the guard's path: broadcast what will be flown.
+  if (!flown.positions->empty()) {
+    // Broadcast what will be flown, stamped with the time it starts from.
     PredictedTrajectory p;
     p.uav = options_.id;
-    p.step_s = guard_.options().step_s;
-    p.stamp_s = t_s;
-    p.positions_m = *flown_path;
-    update_intent(t_s);
-    p.intent_start_s = intent_start_s_;
-    p.intent_step_s = options_.intent_step_s;
-    p.intent_m = intent_;
-    p.intent_revision = intent_revision_;
-    prediction_ = std::move(p);
-    return out;
-  }
-  if (r.predicted_positions_m.cols() > 0) {
-    PredictedTrajectory p;
-    p.uav = options_.id;
-    p.step_s = r.prediction_step_s;
-    p.stamp_s = r.first_prediction_time_s - r.prediction_step_s;
-    p.positions_m.reserve(static_cast<std::size_t>(r.predicted_positions_m.cols()));
-    for (Eigen::Index j = 0; j < r.predicted_positions_m.cols(); ++j)
-      p.positions_m.emplace_back(r.predicted_positions_m.col(j));
+    p.step_s = flown.step_s;
+    p.stamp_s = flown.first_time_s - flown.step_s;
+    p.positions_m = *flown.positions;
     update_intent(t_s);
     p.intent_start_s = intent_start_s_;
     p.intent_step_s = options_.intent_step_s;

@@ -247,11 +247,18 @@ class Agent final : public UavAgent {
   /// `target` moved from the last command at most one control period's command rates, then
   /// clamped into the limits at `state`: what may be flown this step.
   vehicle::Input rate_limited(const vehicle::Input& target, const vehicle::State& state) const;
-  /// Runs the separation guard on the command about to be flown; returns the command to fly
-  /// and points `path` at the positions to broadcast (nullptr: the tracker's prediction).
+  /// The positions the agent will fly: positions[k] at first_time_s + k·step_s.
+  struct FlownPath {
+    const std::vector<Vec3>* positions = nullptr;
+    double first_time_s = 0.0;
+    double step_s = 0.0;
+  };
+  /// Runs the separation guard on the command about to be flown (the tracker's, or the
+  /// fallback's); returns the command to fly and sets `path` to what will be flown (the
+  /// tracker's prediction, the fallback's or the escape's rollout), which is broadcast.
   vehicle::Input guard_command(double t_s, const vehicle::State& state,
                                const vehicle::Input& planned, const mpc::UavTrackerResult& r,
-                               const std::vector<Vec3>*& path);
+                               FlownPath& path);
   void forget_old_threats(double t_s);
 
   AgentOptions options_;
@@ -259,6 +266,7 @@ class Agent final : public UavAgent {
   std::shared_ptr<const world::Terrain> terrain_;
   std::shared_ptr<AgentReference> reference_;
   mpc::UavTracker tracker_;
+  Vec3 command_rate_;  ///< the tracker's |v̇_c|, |ω̇_c|, |ẇ_c|, which every command obeys
   SeparationGuard guard_;
   std::vector<Vec3> planned_path_;  ///< the path the guard checks (tracker's or fallback's)
   std::map<int, KnownThreat> threats_;
