@@ -16,6 +16,11 @@
 // and the agent flies the best one instead when it beats the path's own worst margin: the
 // largest margin up to comfortable_margin_m, then the command closest to the one it replaces.
 // The chosen rollout is broadcast as the prediction, so the neighbours see the escape at once.
+// An escape is a commitment: it is flown until the plan clears every neighbour by
+// release_margin_m, and replaced by another held command only when that one is better by
+// switch_margin_m. So what the neighbours were told holds while they learn of it, and the
+// vehicle does not alternate between the plan and an escape, or a left and a right turn, from
+// one step to the next (each cancelling the other under the rate limits).
 #pragma once
 
 #include <span>
@@ -38,6 +43,15 @@ struct SeparationGuardOptions {
   double trigger_margin_m = 1.0;
   /// Margins above this (> 0) count as equal; the closest command to the replaced one wins.
   double comfortable_margin_m = 3.0;
+  /// An escape, once begun, is flown until the planned path clears every neighbour by
+  /// d_safe + release_margin_m (≥ trigger_margin_m). Without this, the plan and the escape
+  /// alternate from step to step (each clears the other's conflict for one period) and the
+  /// rate-limited vehicle flies neither.
+  double release_margin_m = 3.0;
+  /// During an escape, another held command replaces the escape's only when its margin
+  /// (capped at comfortable_margin_m) is larger by this much (≥ 0): a turn left and a turn
+  /// right of nearly equal margins must not alternate.
+  double switch_margin_m = 1.0;
   int speed_samples = 3;  ///< ≥ 2: v_min … v_max
   int turn_samples = 5;   ///< ≥ 3, odd: −ω_max … ω_max
   int climb_samples = 3;  ///< ≥ 3, odd: −w_max … w_max
@@ -68,6 +82,7 @@ struct GuardInput {
 };
 
 struct GuardDecision {
+  bool triggered = false;  ///< the planned path came within d_safe + trigger_margin_m
   bool escape = false;  ///< fly `command` instead of the planned one
   vehicle::Input command = vehicle::Input::Zero();
   double planned_margin_m = 0.0;  ///< the planned path's worst margin (all constraints)
@@ -89,9 +104,20 @@ class SeparationGuard {
   /// The escape's positions at t_s + (k+1)·step_s (valid after a check that escaped).
   const std::vector<Vec3>& escape_path() const { return best_path_; }
 
+  /// Whether an escape is under way (the last check escaped and has not been released).
+  bool escaping() const { return escaping_; }
+
  private:
   /// Worst margin of positions at t0 + k·dt (k from 0) over every constraint; the neighbours'
   /// positions are sampled by `neighbour_at`.
+  /// The planned path's smallest distance to a neighbour within reach, minus d_safe, over
+  /// the horizon.
+  double planned_separation_margin(const GuardInput& input, const GuardSurroundings& s) const;
+
+  /// Worst margin of the held command `u` rolled out from the input's state (fills rollout_).
+  double held_command_margin(const vehicle::Input& u, const GuardInput& input,
+                             const GuardSurroundings& s);
+
   template <class NeighbourAt>
   double worst_margin(std::span<const Vec3> path, double t0, double dt, const GuardSurroundings& s,
                       NeighbourAt&& neighbour_at) const;
@@ -100,9 +126,12 @@ class SeparationGuard {
   vehicle::VehicleParams vehicle_;
   Vec3 max_command_rate_;
   int steps_ = 0;
+  bool escaping_ = false;
+  vehicle::Input escape_command_ = vehicle::Input::Zero();  ///< the escape being flown
   std::vector<Vec3> neighbour_samples_;  ///< neighbours × steps, at the guard's times
   std::vector<Vec3> rollout_;
   std::vector<Vec3> best_path_;
+  std::vector<Vec3> committed_path_;  ///< the escape under way's rollout, while others are tried
 };
 
 }  // namespace ridgeline::swarm

@@ -128,6 +128,58 @@ TEST(SeparationGuard, TheEscapeKeepsTheTerrainAndTheThreats) {
   EXPECT_GE(closest(guard.escape_path(), n[0], 0.0), f.limits.separation_m);
 }
 
+// The plan shifted sideways by `offset`: what the tracker predicts after a detour began.
+std::vector<Vec3> shifted(std::vector<Vec3> path, const Vec3& offset) {
+  for (Vec3& q : path) q += offset;
+  return path;
+}
+
+TEST(SeparationGuard, AnEscapeIsHeldUntilThePlanClearsByTheReleaseMargin) {
+  Fixture f;
+  SeparationGuard guard(SeparationGuardOptions{}, f.vehicle, f.rates);
+  const std::vector<PredictedTrajectory> n{straight(1, 0.0, Vec3(70, 0, 100), Vec3(-10, 0, 0))};
+  GuardInput in = f.east_from(Vec3(0, 0, 100));
+  const GuardDecision first = guard.check(in, f.around(n));
+  ASSERT_TRUE(first.escape);
+  EXPECT_TRUE(guard.escaping());
+  const vehicle::Input escape = first.command;
+
+  // The plan now passes 12 m from the neighbour: clear of the trigger (d_safe + 1 m), not of
+  // the release margin (d_safe + 3 m). The escape goes on, unchanged.
+  const std::vector<Vec3> near = shifted(f.planned, Vec3(0, 12, 0));
+  in.planned_path_m = near;
+  const GuardDecision held = guard.check(in, f.around(n));
+  EXPECT_TRUE(held.triggered);
+  EXPECT_TRUE(held.escape);
+  EXPECT_EQ(held.command, escape);
+
+  // A fresh guard flies that plan as it is: the hold is the escape's, not the trigger's.
+  SeparationGuard fresh(SeparationGuardOptions{}, f.vehicle, f.rates);
+  EXPECT_FALSE(fresh.check(in, f.around(n)).escape);
+
+  // 14 m: clear by more than the release margin, so the plan is flown again.
+  const std::vector<Vec3> clear = shifted(f.planned, Vec3(0, 14, 0));
+  in.planned_path_m = clear;
+  const GuardDecision released = guard.check(in, f.around(n));
+  EXPECT_FALSE(released.escape);
+  EXPECT_FALSE(guard.escaping());
+  EXPECT_EQ(released.command, in.planned_command);
+}
+
+TEST(SeparationGuard, ReleaseAndSwitchMarginsAreValidated) {
+  SeparationGuardOptions o;
+  o.release_margin_m = 0.5;  // below the trigger margin (1 m)
+  try {
+    SeparationGuard g(o, vehicle::VehicleParams{}, Vec3(4, 1.5, 4));
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "separation_guard.release_margin_m");
+  }
+  o = SeparationGuardOptions{};
+  o.switch_margin_m = -1.0;
+  EXPECT_THROW(SeparationGuard(o, vehicle::VehicleParams{}, Vec3(4, 1.5, 4)), InputError);
+}
+
 TEST(SeparationGuard, DisabledItNeverEscapes) {
   Fixture f;
   SeparationGuardOptions o;
