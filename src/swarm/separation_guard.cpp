@@ -75,7 +75,8 @@ double SeparationGuard::planned_separation_margin(const GuardInput& in,
                        std::max(options_.trigger_margin_m, options_.release_margin_m);
   const Vec3 position = in.state.head<3>();
   double margin = kInf;
-  for (const PredictedTrajectory& n : s.neighbours) {
+  for (const PredictedTrajectory* neighbour : s.neighbours) {
+    const PredictedTrajectory& n = *neighbour;
     if ((messages::expected_position(n, in.t_s) - position).norm() > reach) continue;
     for (std::size_t k = 0; k < in.planned_path_m.size(); ++k) {
       const double t = in.planned_start_s + static_cast<double>(k) * in.planned_step_s;
@@ -122,10 +123,10 @@ GuardDecision SeparationGuard::check(const GuardInput& in, const GuardSurroundin
   for (std::size_t n = 0; n < count; ++n)
     for (std::size_t k = 0; k < steps; ++k)
       neighbour_samples_[n * steps + k] = messages::expected_position(
-          s.neighbours[n], in.t_s + static_cast<double>(k + 1) * options_.step_s);
+          *s.neighbours[n], in.t_s + static_cast<double>(k + 1) * options_.step_s);
 
   const auto planned_at = [&](std::size_t n, std::size_t, double t) {
-    return messages::expected_position(s.neighbours[n], t);
+    return messages::expected_position(*s.neighbours[n], t);
   };
   std::size_t planned_steps = 0;
   while (planned_steps < in.planned_path_m.size() &&

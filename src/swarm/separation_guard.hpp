@@ -5,7 +5,7 @@
 // promise it when the rows are outweighed (no free slot, a failed QP, a reference far away, a
 // neighbour that changed its mind and whose new prediction is late). So every control step the
 // path the agent is about to fly (the MPC's prediction, or the fallback command's rollout) is
-// checked against every selected neighbour's expected position at equal times
+// checked against every neighbour within reach (its expected position) at equal times
 // (messages::expected_position: its prediction, then its intent) over the guard's horizon.
 // When it comes within d_safe + trigger_margin_m of one, the guard scores held commands —
 // a lattice of speed × turn rate × climb rate, each reached from the last command at the
@@ -62,7 +62,9 @@ void validate(const SeparationGuardOptions& options);
 
 /// What the guard checks against, at the current control step.
 struct GuardSurroundings {
-  std::span<const PredictedTrajectory> neighbours;
+  /// Every neighbour within reach (not only the MPC's nearest max_neighbours: at a crowded
+  /// crossing the ninth can be the one that closes fastest).
+  std::span<const PredictedTrajectory* const> neighbours;
   std::span<const world::Threat> threats;
   const world::Terrain* terrain = nullptr;
   const world::SafetyLimits* limits = nullptr;

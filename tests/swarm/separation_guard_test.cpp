@@ -48,9 +48,12 @@ struct Fixture {
     in.planned_step_s = 0.1;
     return in;
   }
+  std::vector<const PredictedTrajectory*> pointers;
   GuardSurroundings around(const std::vector<PredictedTrajectory>& neighbours,
                            const std::vector<world::Threat>& threats = {}) {
-    return GuardSurroundings{neighbours, threats, &terrain, &limits};
+    pointers.clear();
+    for (const PredictedTrajectory& n : neighbours) pointers.push_back(&n);
+    return GuardSurroundings{pointers, threats, &terrain, &limits};
   }
 };
 
@@ -192,10 +195,13 @@ TEST(SeparationGuard, DisabledItNeverEscapes) {
 // Closed loop through the agent: a neighbour of lower priority that does not yield (it flies
 // straight at this UAV, as a UAV whose QP failed might) and no slots, detour or MPC rows to
 // keep them apart (this UAV has priority, so its rows keep only d_safe): the guard does.
-double closest_head_on(bool guard_on) {
+// `parked`: that many more neighbours hold still 25 m beside the meeting point, nearer than the
+// head-on one until it is about 1 s away (the MPC takes the nearest max_neighbours only). The
+// result is the closest approach to any neighbour.
+double closest_head_on(bool guard_on, int parked = 0) {
   AgentOptions o;
   o.id = 0;
-  o.num_uavs = 2;
+  o.num_uavs = 2 + parked;
   o.targets = {{"end", Vec3(1000.0, 0.0, 100.0), 30.0, 30.0}};
   o.separation_guard.enabled = guard_on;
   std::vector<double> t;
@@ -216,6 +222,11 @@ double closest_head_on(bool guard_on) {
     // Head-on at 12 m/s from 200 m along this UAV's plan.
     const Vec3 other = Vec3(200.0 - 12.0 * tk, 0.0, 100.0);
     a.receive(Envelope{1, tk, tk, straight(1, tk, other, Vec3(-12.0, 0.0, 0.0))});
+    for (int i = 0; i < parked; ++i) {
+      const Vec3 still(60.0 + 12.0 * (i / 2), i % 2 == 0 ? 25.0 : -25.0, 100.0);
+      d = std::min(d, (s.head<3>() - still).norm());
+      a.receive(Envelope{2 + i, tk, tk, straight(2 + i, tk, still, Vec3::Zero())});
+    }
     const AgentStep step = a.control(tk, s, Vec3::Zero());
     s = vehicle::rk4_step(s, step.command, Vec3::Zero(), o.tracker.vehicle, dt);
     d = std::min(d, (s.head<3>() - other).norm());
@@ -228,6 +239,12 @@ TEST(SeparationGuard, InClosedLoopTheAgentKeepsDSafeFromANeighbourThatDoesNotYie
   EXPECT_GE(with_guard, 10.0);
   // Without it the rows alone let the pair come closer (9.92 m when this test was written).
   EXPECT_GT(with_guard, closest_head_on(false));
+}
+
+TEST(SeparationGuard, ItWatchesEveryNeighbourWithinReachNotOnlyTheMpcsNearest) {
+  // Still neighbours fill the MPC's max_neighbours until the head-on one is close.
+  // With the nearest ones only, it came to 4.4 m (the escape began about 1 s before).
+  EXPECT_GE(closest_head_on(true, AgentOptions{}.tracker.max_neighbours), 10.0);
 }
 
 }  // namespace
