@@ -564,8 +564,12 @@ void Agent::select_neighbours(double t_s, const Vec3& position_m) {
   const std::size_t count =
       std::min<std::size_t>(nearby_.size(), static_cast<std::size_t>(tracker.max_neighbours));
   guard_neighbours_.resize(nearby_.size());
-  for (std::size_t k = 0; k < nearby_.size(); ++k)
-    guard_neighbours_[k] = &neighbours_.at(nearby_[k].second).prediction;
+  guard_yields_to_me_.resize(nearby_.size());
+  for (std::size_t k = 0; k < nearby_.size(); ++k) {
+    const int id = nearby_[k].second;
+    guard_neighbours_[k] = &neighbours_.at(id).prediction;
+    guard_yields_to_me_[k] = yields_to(id, *guard_neighbours_[k]) ? 0 : 1;
+  }
   neighbour_buffer_.resize(count);
   neighbour_separation_.resize(count);
   for (std::size_t k = 0; k < count; ++k) {
@@ -636,7 +640,8 @@ vehicle::Input Agent::guard_command(double t_s, const vehicle::State& state,
   }
   in.planned_path_m = planned_path_;
   path = FlownPath{&planned_path_, in.planned_start_s, in.planned_step_s};
-  const GuardSurroundings around{guard_neighbours_, threat_buffer_, terrain_.get(), &limits_};
+  const GuardSurroundings around{guard_neighbours_, guard_yields_to_me_, threat_buffer_,
+                                 terrain_.get(), &limits_};
   const GuardDecision d = guard_.check(in, around);
   if (!d.escape) return planned;
   ++counters_.guard_steps;

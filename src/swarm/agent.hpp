@@ -276,6 +276,7 @@ class Agent final : public UavAgent {
   std::vector<double> neighbour_separation_;          ///< the distance each one's rows keep
   std::vector<std::pair<double, int>> nearby_;        ///< (distance now, id) within reach
   std::vector<const PredictedTrajectory*> guard_neighbours_;  ///< every one within reach
+  std::vector<char> guard_yields_to_me_;  ///< per guard neighbour: it yields to this UAV
   // choose_slot's work space: candidate levels and added delays, the yielded-to neighbours'
   // expected positions per sample, each candidate's earliest conflict time and feasibility.
   std::vector<double> levels_;

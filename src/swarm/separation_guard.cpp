@@ -29,6 +29,9 @@ void validate(const SeparationGuardOptions& o) {
           "release_margin_m", "must be finite and at least trigger_margin_m");
   require(std::isfinite(o.switch_margin_m) && o.switch_margin_m >= 0.0, "switch_margin_m",
           "must be finite and non-negative");
+  require(std::isfinite(o.priority_horizon_s) && o.priority_horizon_s > 0.0 &&
+              o.priority_horizon_s <= o.horizon_s,
+          "priority_horizon_s", "must be positive and at most horizon_s");
   require(o.speed_samples >= 2, "speed_samples", "must be at least 2");
   require(o.turn_samples >= 3 && o.turn_samples % 2 == 1, "turn_samples",
           "must be odd and at least 3 (straight flight is a sample)");
@@ -75,12 +78,14 @@ double SeparationGuard::planned_separation_margin(const GuardInput& in,
                        std::max(options_.trigger_margin_m, options_.release_margin_m);
   const Vec3 position = in.state.head<3>();
   double margin = kInf;
-  for (const PredictedTrajectory* neighbour : s.neighbours) {
-    const PredictedTrajectory& n = *neighbour;
+  for (std::size_t i = 0; i < s.neighbours.size(); ++i) {
+    const PredictedTrajectory& n = *s.neighbours[i];
     if ((messages::expected_position(n, in.t_s) - position).norm() > reach) continue;
+    const bool yields = i < s.yields_to_me.size() && s.yields_to_me[i] != 0;
+    const double horizon = yields ? options_.priority_horizon_s : options_.horizon_s;
     for (std::size_t k = 0; k < in.planned_path_m.size(); ++k) {
       const double t = in.planned_start_s + static_cast<double>(k) * in.planned_step_s;
-      if (t > in.t_s + options_.horizon_s + 1e-9) break;
+      if (t > in.t_s + horizon + 1e-9) break;
       margin = std::min(
           margin, (in.planned_path_m[k] - messages::expected_position(n, t)).norm() - d_safe);
     }

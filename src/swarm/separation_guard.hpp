@@ -52,6 +52,11 @@ struct SeparationGuardOptions {
   /// (capped at comfortable_margin_m) is larger by this much (≥ 0): a turn left and a turn
   /// right of nearly equal margins must not alternate.
   double switch_margin_m = 1.0;
+  /// A neighbour that yields to this UAV triggers the guard only for a conflict closer in
+  /// time than this (> 0, ≤ horizon_s): two guards escaping from each other at once, each on
+  /// the other's delayed broadcast, chose the same way out (both climbing, then both
+  /// descending) and came closer than either alone would have.
+  double priority_horizon_s = 2.0;
   int speed_samples = 3;  ///< ≥ 2: v_min … v_max
   int turn_samples = 5;   ///< ≥ 3, odd: −ω_max … ω_max
   int climb_samples = 3;  ///< ≥ 3, odd: −w_max … w_max
@@ -65,6 +70,11 @@ struct GuardSurroundings {
   /// Every neighbour within reach (not only the MPC's nearest max_neighbours: at a crowded
   /// crossing the ninth can be the one that closes fastest).
   std::span<const PredictedTrajectory* const> neighbours;
+  /// Per neighbour, whether it yields to this UAV (the priority order). Empty: none does.
+  /// Such a neighbour triggers the guard only for a conflict within priority_horizon_s: the
+  /// escaping is its job, and a UAV of higher priority that keeps its plan keeps its broadcast
+  /// true for it. Every neighbour counts in an escape's score, over the whole horizon.
+  std::span<const char> yields_to_me;
   std::span<const world::Threat> threats;
   const world::Terrain* terrain = nullptr;
   const world::SafetyLimits* limits = nullptr;

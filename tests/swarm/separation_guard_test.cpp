@@ -53,7 +53,7 @@ struct Fixture {
                            const std::vector<world::Threat>& threats = {}) {
     pointers.clear();
     for (const PredictedTrajectory& n : neighbours) pointers.push_back(&n);
-    return GuardSurroundings{pointers, threats, &terrain, &limits};
+    return GuardSurroundings{pointers, {}, threats, &terrain, &limits};
   }
 };
 
@@ -169,7 +169,7 @@ TEST(SeparationGuard, AnEscapeIsHeldUntilThePlanClearsByTheReleaseMargin) {
   EXPECT_EQ(released.command, in.planned_command);
 }
 
-TEST(SeparationGuard, ReleaseAndSwitchMarginsAreValidated) {
+TEST(SeparationGuard, ReleaseSwitchAndPriorityOptionsAreValidated) {
   SeparationGuardOptions o;
   o.release_margin_m = 0.5;  // below the trigger margin (1 m)
   try {
@@ -181,6 +181,32 @@ TEST(SeparationGuard, ReleaseAndSwitchMarginsAreValidated) {
   o = SeparationGuardOptions{};
   o.switch_margin_m = -1.0;
   EXPECT_THROW(SeparationGuard(o, vehicle::VehicleParams{}, Vec3(4, 1.5, 4)), InputError);
+  o = SeparationGuardOptions{};
+  o.priority_horizon_s = 5.0;  // beyond the 4 s horizon
+  EXPECT_THROW(SeparationGuard(o, vehicle::VehicleParams{}, Vec3(4, 1.5, 4)), InputError);
+}
+
+TEST(SeparationGuard, ANeighbourThatYieldsTriggersItOnlyForAnImminentConflict) {
+  Fixture f;
+  const SeparationGuardOptions o;  // priority_horizon_s 2 s of a 4 s horizon
+  const std::vector<char> yields{1};
+  // Head-on, closing at 20 m/s: within d_safe + 1 m after 2.95 s.
+  const std::vector<PredictedTrajectory> late{straight(1, 0.0, Vec3(70, 0, 100), Vec3(-10, 0, 0))};
+  const GuardInput in = f.east_from(Vec3(0, 0, 100));
+  GuardSurroundings around = f.around(late);
+  around.yields_to_me = yields;
+  SeparationGuard guard(o, f.vehicle, f.rates);
+  EXPECT_FALSE(guard.check(in, around).triggered);  // its own escape comes first
+  around.yields_to_me = {};
+  EXPECT_TRUE(SeparationGuard(o, f.vehicle, f.rates).check(in, around).escape);
+
+  // From 40 m: within d_safe + 1 m after 1.45 s, so this UAV escapes too.
+  const std::vector<PredictedTrajectory> soon{straight(1, 0.0, Vec3(40, 0, 100), Vec3(-10, 0, 0))};
+  around = f.around(soon);
+  around.yields_to_me = yields;
+  const GuardDecision d = SeparationGuard(o, f.vehicle, f.rates).check(in, around);
+  EXPECT_TRUE(d.escape);
+  EXPECT_GT(d.margin_m, d.planned_margin_m);
 }
 
 TEST(SeparationGuard, DisabledItNeverEscapes) {
