@@ -572,15 +572,16 @@ void Agent::select_neighbours(double t_s, const Vec3& position_m) {
   }
   neighbour_buffer_.resize(count);
   neighbour_separation_.resize(count);
+  // The MPC's neighbours: the nearest of the guard's, with the same yielding.
   for (std::size_t k = 0; k < count; ++k) {
-    const int id = nearby_[k].second;
-    const PredictedTrajectory& p = neighbours_.at(id).prediction;
+    const PredictedTrajectory& p = *guard_neighbours_[k];
     neighbour_buffer_[k] = p;  // reuses the element's capacity
     const double age = std::max(0.0, t_s - p.stamp_s);
     neighbour_separation_[k] =
-        yields_to(id, p) ? d_safe + options_.separation_margin_m +
-                               std::min(options_.age_margin_m_s * age, options_.max_age_margin_m)
-                         : d_safe;
+        guard_yields_to_me_[k] == 0
+            ? d_safe + options_.separation_margin_m +
+                  std::min(options_.age_margin_m_s * age, options_.max_age_margin_m)
+            : d_safe;
   }
 }
 

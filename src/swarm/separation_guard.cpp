@@ -163,18 +163,16 @@ GuardDecision SeparationGuard::check(const GuardInput& in, const GuardSurroundin
       best_path_.assign(rollout_.begin(), rollout_.end());
     }
   };
-  double committed_capped = -kInf;
+  // The escape under way, held on (its turn bounded at today's speed).
+  vehicle::Input committed = escape_command_;
+  double committed_margin = -kInf;
   if (escaping_) {
-    // The escape under way, held on (its turn bounded at today's speed).
-    vehicle::Input u = escape_command_;
-    u[1] = std::clamp(u[1], -turn_max, turn_max);
-    const double margin = held_command_margin(u, in, s);
-    committed_capped = std::min(margin, cap);
-    consider(u, margin);
+    committed[1] = std::clamp(committed[1], -turn_max, turn_max);
+    committed_margin = held_command_margin(committed, in, s);
+    committed_path_.assign(rollout_.begin(), rollout_.end());
+    consider(committed, committed_margin);
   }
-  const vehicle::Input committed = d.command;
-  const double committed_margin = d.margin_m;
-  committed_path_.assign(best_path_.begin(), best_path_.end());
+  const double committed_capped = std::min(committed_margin, cap);
   for (int a = 0; a < options_.speed_samples; ++a) {
     const double v = v_min + (v_max - v_min) * a / (options_.speed_samples - 1);
     for (int b = 0; b < options_.turn_samples; ++b) {
