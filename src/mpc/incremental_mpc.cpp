@@ -30,7 +30,8 @@ bool has_shape(const MatX& m, int rows, int cols) { return m.rows() == rows && m
 typedef double Vec4 __attribute__((vector_size(32)));
 
 // dst[0..n) += a·src[0..n) for rows of different matrices.
-void axpy(double* __restrict dst, int n, double a, const double* __restrict src) {
+inline __attribute__((always_inline)) void axpy(double* __restrict dst, int n, double a,
+                                                const double* __restrict src) {
   for (int i = 0; i < n; ++i) dst[i] += a * src[i];
 }
 
@@ -38,9 +39,13 @@ void axpy(double* __restrict dst, int n, double a, const double* __restrict src)
 // row, sources row `col` of a row-major matrix at `src`, leading dimension ld), summed in the
 // terms' order; base null means zero. The common counts keep the partial sums in registers, so
 // each entry of dst is stored once.
+// Inlined into its callers, the forward pass's clones, so that it is compiled for AVX2 too.
 template <typename Term>
-void combine_row(double* __restrict dst, int n, const double* __restrict base, const Term* terms,
-                 int count, const double* __restrict src, Eigen::Index ld) {
+inline __attribute__((always_inline)) void combine_row(double* __restrict dst, int n,
+                                                       const double* __restrict base,
+                                                       const Term* terms, int count,
+                                                       const double* __restrict src,
+                                                       Eigen::Index ld) {
   const auto row = [&](int t) { return src + terms[t].col * ld; };
   if (base == nullptr && count == 1) {
     const double a0 = terms[0].value;
@@ -420,30 +425,29 @@ void IncrementalMpc::forward_pass() {
   //   Γ_j = A_j Γ_{j−1} + [B_j in the columns of move j],   Φ_j = Φ_{j−1} + C Γ_j,
   //   ds_j = A_j ds_{j−1} + w_j,                              y_j = y_{j−1} + C ds_j.
   // Γ and Φ are row-major with the columns ordered by input, then move (column c·Nc + i is
-  // Δu_{k+i,c}): a row's part for one input is then contiguous, the moves started so far are
-  // its first entries, and a row update touches only the inputs in the row's reach. From step
-  // Nc on every move has started and a row's reached inputs lie inside its span, a contiguous
-  // run of columns whose other entries are exact zeros: one loop over the span does the same
-  // arithmetic as one loop per input. That invariant holds because entries outside a reach
-  // are never written but with sums of such zeros, and Γ and Φ are cleared when a reach
-  // changes.
+  // Δu_{k+i,c}): a row's part for one input is contiguous, and a row is nonzero only inside
+  // its span, the contiguous run of columns from its first to its last reached input's
+  // block, whose other entries are exact zeros. Every row of Γ_j and Φ_j is one fused loop
+  // over its span, also before step Nc: Γ_{−1} = 0, so the columns of the moves not started
+  // yet are sums of exact zeros (one loop without per-input branches costs less than
+  // skipping them). The zeros outside a row's span hold because they are never written, and
+  // Γ and Φ are cleared when a reach changes.
   if (output_reach_ != phi_reach_) {
     Phi_.setZero();
     phi_reach_ = output_reach_;
     group_rows_by_span();
   }
   if (state_reach_ != gamma_reach_) {
-    Gamma_.setZero();
     Gnext_.setZero();
     gamma_reach_ = state_reach_;
   }
+  Gamma_.setZero();  // Γ_{−1}
   ds_ = d.delta_state;
   y_ = d.output;
   RowMatX* G = &Gamma_;
   RowMatX* Gn = &Gnext_;
+  const Eigen::Index ld = Gamma_.outerStride();
   for (int j = 0; j < np_; ++j) {
-    const int active = std::min(j, nc_);  // moves started before step j (per input)
-    const int used = std::min(j + 1, nc_);  // ... and by step j
     w_ = d.state_offset.col(j);
     // A forecast increment is usually zero after the first step (a held measurement): E·0
     // would add exact zeros.
@@ -451,40 +455,21 @@ void IncrementalMpc::forward_pass() {
       w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
     }
     dsn_ = w_;
-    if (j >= nc_) {
-      // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
-      // span lies inside it (reaches are closed over A), and its entries outside its own span
-      // are exact zeros.
-      const Eigen::Index ld = G->outerStride();
-      int e = a_begin_[j];
-      const int end = a_begin_[j + 1];
-      for (int k = 0; k < ns_; ++k) {
-        const int first = e;
-        for (; e < end && a_entries_[e].row == k; ++e) {
-          dsn_[k] += a_entries_[e].value * ds_[a_entries_[e].col];
-        }
-        const int lo = state_span_lo_[k];
-        combine_row(Gn->row(k).data() + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first],
-                    e - first, G->data() + lo, ld);
+    // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
+    // span lies inside it (reaches are closed over A), and its entries outside its own span
+    // are exact zeros.
+    int e = a_begin_[j];
+    const int end = a_begin_[j + 1];
+    for (int k = 0; k < ns_; ++k) {
+      const int first = e;
+      for (; e < end && a_entries_[e].row == k; ++e) {
+        dsn_[k] += a_entries_[e].value * ds_[a_entries_[e].col];
       }
-    } else {
-      for (int k = 0; k < ns_; ++k) {
-        for (int c = 0; c < nu_; ++c) {
-          if (((state_reach_[k] >> c) & 1U) == 0) continue;
-          std::fill_n(Gn->row(k).data() + c * nc_, active, 0.0);
-        }
-      }
-      for (int e = a_begin_[j]; e < a_begin_[j + 1]; ++e) {
-        const Entry a = a_entries_[e];
-        dsn_[a.row] += a.value * ds_[a.col];
-        const std::uint64_t reach = state_reach_[a.col];
-        for (int c = 0; c < nu_; ++c) {
-          if (((reach >> c) & 1U) == 0) continue;
-          double* dst = Gn->row(a.row).data() + c * nc_;
-          const double* src = G->row(a.col).data() + c * nc_;
-          for (int i = 0; i < active; ++i) dst[i] += a.value * src[i];
-        }
-      }
+      const int lo = state_span_lo_[k];
+      combine_row(Gn->row(k).data() + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first],
+                  e - first, G->data() + lo, ld);
+    }
+    if (j < nc_) {  // move j starts: its columns of Γ_{j−1} are zero, so B_j is all of them
       const MatX& B = d.B[j];
       for (int k = 0; k < ns_; ++k) {
         for (int c = 0; c < nu_; ++c) {
@@ -496,48 +481,22 @@ void IncrementalMpc::forward_pass() {
     std::swap(ds_, dsn_);
     // y_j = y_{j−1} + C ds_j row by row in scalars: ds_ was just written entry by entry, and a
     // vector load of it would wait for those stores to retire instead of forwarding them.
-    for (int e = 0, k = 0; k < ny_; ++k) {
+    for (int ec = 0, k = 0; k < ny_; ++k) {
       double v = y_[k];
-      for (; e < c_count_ && c_entries_[e].row == k; ++e) {
-        v += c_entries_[e].value * ds_[c_entries_[e].col];
+      for (; ec < c_count_ && c_entries_[ec].row == k; ++ec) {
+        v += c_entries_[ec].value * ds_[c_entries_[ec].col];
       }
       y_[k] = v;
       Yfree_[j * ny_ + k] = v;
     }
-    if (j >= nc_) {
-      // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
-      const Eigen::Index ld = G->outerStride();
-      int e = 0;
-      for (int k = 0; k < ny_; ++k) {
-        const int first = e;
-        while (e < c_count_ && c_entries_[e].row == k) ++e;
-        const int lo = output_span_lo_[k];
-        combine_row(Phi_.row(j * ny_ + k).data() + lo, output_span_hi_[k] - lo,
-                    Phi_.row((j - 1) * ny_ + k).data() + lo, &c_entries_[first], e - first,
-                    G->data() + lo, ld);
-      }
-    } else {
-      for (int k = 0; k < ny_; ++k) {
-        double* row = Phi_.row(j * ny_ + k).data();
-        for (int c = 0; c < nu_; ++c) {
-          if (((output_reach_[k] >> c) & 1U) == 0) continue;
-          if (j > 0) {
-            std::copy_n(Phi_.row((j - 1) * ny_ + k).data() + c * nc_, used, row + c * nc_);
-          } else {
-            std::fill_n(row + c * nc_, used, 0.0);
-          }
-        }
-      }
-      for (int e = 0; e < c_count_; ++e) {
-        const Entry cz = c_entries_[e];
-        const std::uint64_t reach = state_reach_[cz.col];
-        for (int c = 0; c < nu_; ++c) {
-          if (((reach >> c) & 1U) == 0) continue;
-          double* dst = Phi_.row(j * ny_ + cz.row).data() + c * nc_;
-          const double* src = G->row(cz.col).data() + c * nc_;
-          for (int i = 0; i < used; ++i) dst[i] += cz.value * src[i];
-        }
-      }
+    // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
+    for (int ec = 0, k = 0; k < ny_; ++k) {
+      const int first = ec;
+      while (ec < c_count_ && c_entries_[ec].row == k) ++ec;
+      const int lo = output_span_lo_[k];
+      const double* previous = j > 0 ? Phi_.row((j - 1) * ny_ + k).data() + lo : nullptr;
+      combine_row(Phi_.row(j * ny_ + k).data() + lo, output_span_hi_[k] - lo, previous,
+                  &c_entries_[first], ec - first, G->data() + lo, ld);
     }
   }
 }

@@ -51,9 +51,10 @@
 // Condensing exploits the structure instead of multiplying dense stacked matrices:
 //  - Φ is built block by block by one forward pass over the stage matrices: Γ_j = ∂Δs_{j+1}/∂ΔU
 //    obeys Γ_j = A_j Γ_{j−1} (+ B_j in the columns of move j), and the output rows are
-//    Φ_j = Φ_{j−1} + C Γ_j. Only the exact nonzeros of A_j and C are visited, and only the
-//    columns of the moves started by step j (Φ is block lower-triangular). The free response
-//    is the same pass on one vector, so F and Y_w are never formed.
+//    Φ_j = Φ_{j−1} + C Γ_j. Only the exact nonzeros of A_j and C are visited; the columns of
+//    the moves not started by step j (Φ is block lower-triangular) are summed as exact zeros
+//    inside a row's span (one loop a row, no per-move branches). The free response is the
+//    same pass on one vector, so F and Y_w are never formed.
 //  - The reach of a state or output (the inputs whose moves change it, from the nonzero
 //    patterns of B, A and C) bounds the columns a row of Γ or Φ can have: for the UAV, x and y
 //    are reached by the speed and turn commands, z by the climb command only. Row updates and
