@@ -52,7 +52,8 @@ struct MpcBenchmarkReport {
   int qps_dumped = 0;        ///< QPs written to dump_qps_path
   int not_solved = 0;        ///< steps whose QP did not reach kSolved
   double max_slack_m = 0.0;  ///< largest soft-constraint violation the plans accepted
-  double soft_rows_mean = 0.0;
+  double soft_rows_mean = 0.0;        ///< soft rows added a step
+  double soft_rows_in_qp_mean = 0.0;  ///< of them, the rows the QP carried (not redundant)
   int ipopt_compared = 0;
   double ipopt_qp_us_median = 0.0;  ///< Ipopt on the same QPs
   double ours_on_compared_us_median = 0.0;

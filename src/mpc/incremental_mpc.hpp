@@ -64,11 +64,14 @@
 //    its first to its last reached input's columns; see build_prediction), four rows at a time.
 //  - The input-limit rows, the slack terms and the QP's layout are written once at
 //    construction.
-// All matrices are preallocated at construction; after the
-// first solve a step allocates nothing unless the number of soft rows grows past a block of
-// kSoftRowBlock rows (or shrinks by more than one): the QP holds the soft rows in such blocks,
-// padded with rows whose sides are both infinite, so its size — and the solver's warm start —
-// survives the small changes of the active set of soft rows from step to step.
+//  - Soft rows that no move within the move limits can violate are left out of the QP (they
+//    cannot change its solution; see assemble_soft_rows), and the QP's hot start follows the
+//    rows it keeps by (group, source, step) as they come, go and shift.
+// All matrices are preallocated at construction; after the first solve a step allocates
+// nothing unless the soft rows it carries need more blocks of kSoftRowBlock rows than any
+// step's before: the QP holds the soft rows in such blocks, padded with rows whose sides are
+// both infinite, and keeps the largest size it has needed, so its size — and the solver's
+// warm start — survives the changes of the soft rows from step to step.
 #pragma once
 
 #include <Eigen/Core>
@@ -107,6 +110,10 @@ struct IncrementalMpcOptions {
   bool hard_output_limits = false;      ///< add the rows y_min ≤ y ≤ y_max of eq. 11
   double slack_linear_weight = 1e4;     ///< ρ₁ > 0, per unit of slack (exact penalty)
   double slack_quadratic_weight = 1e2;  ///< ρ₂ > 0, per unit² of slack
+  /// Leave out of the QP the soft rows no move within the move limits can violate (see
+  /// assemble_soft_rows): the solution is the same, the QP smaller. Off only to inspect every
+  /// row in qp_problem().
+  bool drop_redundant_soft_rows = true;
   qp::QpSettings qp_settings;
 };
 
@@ -137,15 +144,21 @@ struct IncrementalMpcData {
   void set_time_invariant(const MatX& A_, const MatX& B_, const MatX& C_, const MatX& E_);
 
   /// Adds the soft row aᵀ y_{k+step+1} + σ_group ≥ bound. Returns false (and adds nothing) if
-  /// the capacity is full or step/group is out of range; the caller reports that.
-  bool add_soft_row(int step, const Eigen::Ref<const VecX>& a, double bound, int group);
+  /// the capacity is full or step/group/source is out of range; the caller reports that.
+  /// `source` (≥ 0) tells the rows of one group apart (e.g. which threat): a row keeps its
+  /// (group, source, step) from one solve to the next, and the QP's hot start follows the
+  /// rows by it. Rows added in increasing (group, source, step) order are followed; in any
+  /// other order the hot start reads the rows by their position.
+  bool add_soft_row(int step, const Eigen::Ref<const VecX>& a, double bound, int group,
+                    int source = 0);
   void clear_soft_rows() { soft_row_count = 0; }
 
   int soft_row_count = 0;
-  std::vector<int> soft_step;   ///< capacity entries
-  std::vector<int> soft_group;  ///< capacity entries
-  MatX soft_normal;             ///< n_y×capacity
-  VecX soft_bound;              ///< capacity
+  std::vector<int> soft_step;    ///< capacity entries
+  std::vector<int> soft_group;   ///< capacity entries
+  std::vector<int> soft_source;  ///< capacity entries
+  MatX soft_normal;              ///< n_y×capacity
+  VecX soft_bound;               ///< capacity
 };
 
 /// Outcome of one step. Unless the QP was solved, the moves are zero and the predictions
@@ -164,6 +177,9 @@ struct IncrementalMpcResult {
   double max_slack = 0.0;  ///< max_g σ_g
   double cost = 0.0;       ///< J of eq. 10 plus the slack penalty, at the solution
   int qp_iterations = 0;
+  /// The soft rows the QP carried: those added, less the ones no move within the move limits
+  /// can violate (see assemble_soft_rows), which cannot change the solution.
+  int soft_rows_in_qp = 0;
   double qp_time_us = 0.0;          ///< the QP solve (QpResult::solve_time_us)
   double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock)
   double soft_rows_time_us = 0.0;   ///< the soft rows written into the QP (wall clock)
@@ -218,6 +234,7 @@ class IncrementalMpc {
   RIDGELINE_SIMD_CLONES void assemble_soft_rows();
   void extract_solution(const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
+  void renumber_soft_rows(int old_soft_rows_in_qp);
 
   static constexpr int kSoftRowBlock = 16;
   int soft_rows_in_qp_ = 0;
@@ -267,6 +284,25 @@ class IncrementalMpc {
   RowMatX Hp_;  // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower triangle (a ≥ b)
   VecX fp_;     // Nc·n_u: f_u in Φ's column order
   VecX soft_row_;  // Nc·n_u: one soft row's aᵀΦ_j
+  // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows),
+  // and the box in Φ's column order.
+  VecX phi_min_, phi_max_;        // Np·n_y
+  VecX move_lo_phi_, move_hi_phi_;  // Nc·n_u
+  // This step's soft rows that can be violated (indices into data's rows), in data's order,
+  // with their bounds on aᵀΦ_j ΔU + σ.
+  std::vector<int> kept_rows_;  // capacity entries, the first kept_count_ used
+  VecX kept_bounds_;            // capacity
+  int kept_count_ = 0;
+
+  // The last solve's QP soft rows by (group, source, step), to renumber the QP's hot start.
+  struct SoftRowKey {
+    int group = 0, source = 0, step = 0;
+    auto operator<=>(const SoftRowKey&) const = default;
+  };
+  std::vector<SoftRowKey> previous_keys_;  // capacity entries, the first previous_count_ used
+  int previous_count_ = 0;
+  bool previous_sorted_ = false;
+  std::vector<int> row_map_;  // the QP's rows at capacity: old row → new row or −1
 };
 
 }  // namespace ridgeline::mpc

@@ -308,8 +308,10 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
   const auto margin = [&](int j) {
     return std::min(options_.wind_error_bound_m_s * (j + 1) * dt, options_.max_robust_margin_m);
   };
-  const auto add = [&](int j, const Vec3& a, double b, SoftConstraintKind kind) {
-    if (d.add_soft_row(j, a, b, static_cast<int>(kind))) {
+  // `source` tells the rows of one kind apart (which threat, which neighbour) so that the QP's
+  // hot start follows each row from step to step; rows are added in (kind, source, step) order.
+  const auto add = [&](int j, const Vec3& a, double b, SoftConstraintKind kind, int source) {
+    if (d.add_soft_row(j, a, b, static_cast<int>(kind), source)) {
       ++result_.soft_rows[static_cast<int>(kind)];
     }
   };
@@ -336,7 +338,7 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       double dist = 0.0;
       const Vec3 n = normal(nominal_positions_.col(j), c, dist);
       if (dist - required > activation) continue;
-      add(j, n, n.dot(c) + required, SoftConstraintKind::kThreat);
+      add(j, n, n.dot(c) + required, SoftConstraintKind::kThreat, k);
     }
   }
 
@@ -357,7 +359,7 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       double dist = 0.0;
       const Vec3 n = normal(nominal_positions_.col(j), q, dist);
       if (dist - separation > activation) continue;
-      add(j, n, n.dot(q) + separation, SoftConstraintKind::kNeighbour);
+      add(j, n, n.dot(q) + separation, SoftConstraintKind::kNeighbour, k);
     }
   }
 
@@ -371,7 +373,7 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       if (pbar.z() - h - required > activation) continue;
       // z − ∇H·(p − p̄)_xy ≥ H(p̄) + h_safe + m_j + e_H
       add(j, Vec3(-g.x(), -g.y(), 1.0), h + required - g.dot(pbar.head<2>()),
-          SoftConstraintKind::kTerrain);
+          SoftConstraintKind::kTerrain, 0);
     }
   }
 }
@@ -441,6 +443,7 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   result_.qp_status = r.qp_status;
   result_.qp_iterations = r.qp_iterations;
   result_.qp_time_us = r.qp_time_us;
+  result_.soft_rows_in_qp = r.soft_rows_in_qp;
   vehicle::Input u = u_prev;
   if (r.solved()) {
     u = r.first_input;

@@ -169,7 +169,10 @@ struct UavTrackerResult {
   double prediction_step_s = 0.0;
   /// Slack (m) per kind (SoftConstraintKind): the largest violation the plan accepts.
   std::array<double, kSoftConstraintKinds> slack_m{};
-  std::array<int, kSoftConstraintKinds> soft_rows{};
+  std::array<int, kSoftConstraintKinds> soft_rows{};  ///< added per kind
+  /// Of them, the rows the QP carried (IncrementalMpcResult::soft_rows_in_qp): the others no
+  /// move within the rate limits can violate.
+  int soft_rows_in_qp = 0;
   int dropped_threats = 0;
   int dropped_neighbours = 0;
 

@@ -648,4 +648,17 @@ void DualActiveSet::set_working_set(const QpResult& result, double threshold) {
   }
 }
 
+void DualActiveSet::renumber_rows(const int* new_row_of_old, int old_rows) {
+  int kept = 0;
+  for (int k = 0; k < saved_count_; ++k) {
+    Side c = saved_[k];
+    if (c.kind == kRowLower || c.kind == kRowUpper) {
+      c.index = c.index < old_rows ? new_row_of_old[c.index] : -1;
+      if (c.index < 0) continue;
+    }
+    saved_[kept++] = c;
+  }
+  saved_count_ = kept;
+}
+
 }  // namespace ridgeline::qp

@@ -62,6 +62,10 @@ class DualActiveSet {
   /// Takes the working set from signed multipliers in QpResult's convention (a side is in it
   /// when its multiplier's magnitude exceeds `threshold`), e.g. after a fallback solve.
   void set_working_set(const QpResult& result, double threshold);
+  /// The general rows were renumbered: old row j is row new_row_of_old[j] of the next problem
+  /// (−1: gone). The saved working set follows its rows (a row index outside the map is
+  /// dropped), so a hot start keeps its guess when rows are inserted or removed before them.
+  void renumber_rows(const int* new_row_of_old, int old_rows);
 
   const Eigen::VectorXd& z() const { return x_; }
   /// Multipliers in QpResult's convention (+ upper side, − lower side).

@@ -270,6 +270,11 @@ void QpSolver::reset() {
   workspace_->active_set.forget();
 }
 
+void QpSolver::renumber_rows(std::span<const int> new_row_of_old) {
+  workspace_->active_set.renumber_rows(new_row_of_old.data(),
+                                       static_cast<int>(new_row_of_old.size()));
+}
+
 bool QpSolver::Workspace::setup(const QpProblem& problem) {
   q = &problem;
   const int n_new = problem.num_variables();

@@ -13,6 +13,7 @@
 
 #include <limits>
 #include <memory>
+#include <span>
 #include <string_view>
 
 #include <Eigen/Core>
@@ -110,6 +111,12 @@ class QpSolver {
   const QpResult& solve(const QpProblem& problem);
   /// Forgets the previous solution (the next solve starts cold).
   void reset();
+  /// The general rows of the next problem are those of the last one renumbered: old row j is
+  /// row new_row_of_old[j] (−1: gone; the span has the last problem's m entries). The
+  /// active-set method's hot start follows its rows instead of reading their old indices as
+  /// other rows (for an MPC whose soft rows come and go along the horizon). The interior
+  /// point's warm start is left as it is.
+  void renumber_rows(std::span<const int> new_row_of_old);
 
   const QpSettings& settings() const { return settings_; }
   const QpResult& last_result() const { return result_; }

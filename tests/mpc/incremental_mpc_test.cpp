@@ -253,6 +253,7 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnRandomDensePlants) {
     o.output_weight = random_matrix(rng, ny, 1, 1.0).cwiseAbs();
     o.terminal_output_weight = 3.0 * o.output_weight;
     o.move_weight = random_matrix(rng, nu, 1, 1.0).cwiseAbs().array() + 0.1;
+    o.drop_redundant_soft_rows = false;  // every soft row in the QP, to compare them all
     IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, 2, 4 * np, 2}, o);
     IncrementalMpcData& d = mpc.data();
     d.C = random_matrix(rng, ny, ns, 1.0);
@@ -279,6 +280,7 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOu
   IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
   o.output_weight = Eigen::Vector4d(1.0, 1.0, 2.0, 5.0);
   o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
+  o.drop_redundant_soft_rows = false;  // every soft row in the QP, to compare them all
   IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, 3, 4 * np, 3}, o);
   IncrementalMpcData& d = mpc.data();
   d.C = MatX::Zero(ny, ns);
@@ -311,6 +313,107 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOu
     SCOPED_TRACE(trial);
     expect_condensing_equals_dense(mpc);
   }
+}
+
+// Soft rows that no move within the move limits can violate are left out of the QP; the
+// solution must be the one of the QP with every row. The UAV's Jacobians along random
+// nominals, rate-limited moves, and soft rows at random distances from the free response
+// (half of them farther than the moves can reach in the horizon, some in reach, some
+// violated by the free response) over a sequence of steps whose rows come and go, so that the
+// hot start also meets rows that moved in the QP.
+TEST(IncrementalMpcSoftRows, RedundantRowsLeftOutChangeNothing) {
+  std::mt19937 rng(5);
+  const vehicle::VehicleParams p;
+  const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 40, nc = 10;
+  IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+  o.output_weight = Eigen::Vector3d(1.0, 1.0, 2.0);
+  o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
+  o.move_min = -Eigen::Vector3d(0.2, 0.03, 0.1);
+  o.move_max = Eigen::Vector3d(0.2, 0.03, 0.1);
+  o.qp_settings = {.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};  // the tracker's
+  IncrementalMpcOptions all_rows = o;
+  all_rows.drop_redundant_soft_rows = false;
+  const IncrementalMpcDims dims{ns, nu, ny, 3, 3 * np, 3};
+  IncrementalMpc dropping(dims, o), keeping(dims, all_rows);
+  std::uniform_real_distribution<double> heading(-kPi, kPi), unit(0.0, 1.0);
+  int added = 0, carried = 0, active_rows = 0, exact_steps = 0;
+  for (int step = 0; step < 30; ++step) {
+    const std::uint32_t seed = rng();
+    for (IncrementalMpc* mpc : {&dropping, &keeping}) {
+      std::mt19937 data_rng(seed);
+      IncrementalMpcData& d = mpc->data();
+      const double psi0 = heading(data_rng);
+      for (int j = 0; j < np; ++j) {
+        vehicle::State s = vehicle::State::Zero();
+        s[vehicle::kPsi] = psi0 + 0.02 * j;
+        s[vehicle::kV] = 12.0;
+        const vehicle::Jacobians J = vehicle::discrete_jacobians(s, p, 0.1);
+        d.A[j] = J.A;
+        d.B[j] = J.B;
+        d.E[j] = J.E;
+      }
+      d.C = MatX::Zero(ny, ns);
+      d.C.leftCols(3).setIdentity();
+      // Flying at 12 m/s along ψ0, the reference a few metres off the straight path.
+      d.delta_state = random_matrix(data_rng, ns, 1, 0.02);
+      d.delta_state[0] += 1.2 * std::cos(psi0);
+      d.delta_state[1] += 1.2 * std::sin(psi0);
+      d.output = random_matrix(data_rng, ny, 1, 50.0);
+      d.state = random_matrix(data_rng, ns, 1, 50.0);
+      d.reference = random_matrix(data_rng, ny, np, 3.0);
+      for (int j = 0; j < np; ++j) {
+        d.reference.col(j) += d.output + (j + 1) * d.delta_state.head<3>();
+      }
+      d.disturbance_delta.setZero();
+      d.state_offset.setZero();
+      mpc->build_prediction();
+      d.clear_soft_rows();
+      // Rows in (group, source, step) order; each source's rows start at a step that moves
+      // from one solve to the next.
+      for (int group = 0; group < 3; ++group) {
+        for (int source = 0; source < 2; ++source) {
+          const int first = static_cast<int>(unit(data_rng) * np / 2);
+          for (int j = first; j < np; j += 2) {
+            Vec3 a = random_matrix(data_rng, 3, 1, 1.0);
+            a.normalize();
+            const double free = a.dot(mpc->free_response().segment<3>(j * ny));
+            // From 1 m violated to 40 m clear of the free response.
+            const double clear = -1.0 + 41.0 * unit(data_rng);
+            d.add_soft_row(j, a, free - clear, group, source);
+          }
+        }
+      }
+      mpc->solve();
+    }
+    const IncrementalMpcResult& a = dropping.last_result();
+    const IncrementalMpcResult& b = keeping.last_result();
+    SCOPED_TRACE(step);
+    ASSERT_TRUE(a.solved()) << qp::to_string(a.qp_status);
+    ASSERT_TRUE(b.solved()) << qp::to_string(b.qp_status);
+    EXPECT_EQ(b.soft_rows_in_qp, keeping.data().soft_row_count);
+    // The active set's answers are exact to round-off; where it handed a problem to the
+    // interior point (some steps with violated rows), the answers agree to its tolerance.
+    const bool exact = !dropping.qp_result().fell_back && !keeping.qp_result().fell_back;
+    const double tolerance = exact ? 1e-9 : 1e-5;
+    exact_steps += exact ? 1 : 0;
+    EXPECT_LE((a.moves - b.moves).cwiseAbs().maxCoeff(), tolerance);
+    EXPECT_LE((a.slack - b.slack).cwiseAbs().maxCoeff(), tolerance);
+    EXPECT_NEAR(a.cost, b.cost, tolerance * std::max(1.0, std::abs(b.cost)));
+    // Every row, carried or not, holds at the solution up to its slack.
+    const IncrementalMpcData& d = dropping.data();
+    for (int r = 0; r < d.soft_row_count; ++r) {
+      const double lhs = d.soft_normal.col(r).dot(a.predicted_outputs.col(d.soft_step[r]));
+      EXPECT_GE(lhs + a.slack[d.soft_group[r]], d.soft_bound[r] - 1e-6);
+      if (lhs < d.soft_bound[r] + 1e-6) ++active_rows;
+    }
+    added += d.soft_row_count;
+    carried += a.soft_rows_in_qp;
+  }
+  // Both kinds occur: rows left out, and rows carried of which some bind.
+  EXPECT_LT(carried, added / 2);
+  EXPECT_GT(carried, 0);
+  EXPECT_GT(active_rows, 0);
+  EXPECT_GE(exact_steps, 15);
 }
 
 TEST(IncrementalMpcOptionsCheck, RejectsInconsistentOptionsNamingTheField) {

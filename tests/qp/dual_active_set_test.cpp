@@ -171,6 +171,41 @@ TEST(DualActiveSetTest, ConflictingBoundsAndRowAreReportedInfeasible) {
   EXPECT_NEAR(ok.z[1], 0.0, 1e-12);
 }
 
+// min ½‖z − (3, 3)‖² with the rows z₁ ≤ 1 and z₂ ≤ 1 (both active at z = (1, 1)). The next
+// problem inserts an inactive row z₁ + z₂ ≤ 100 before them: told the renumbering, the hot
+// start is the optimal working set (no update); read by position it starts from the new row
+// and needs updates. Both answer z = (1, 1).
+TEST(DualActiveSetTest, RenumberedRowsKeepTheHotStart) {
+  QpProblem q;
+  q.H = Eigen::Matrix2d::Identity();
+  q.f = Eigen::Vector2d(-3.0, -3.0);
+  q.G = Eigen::Matrix2d::Identity();
+  q.lg = Eigen::Vector2d::Constant(-kInfinity);
+  q.ug = Eigen::Vector2d(1.0, 1.0);
+  q.A.resize(0, 2);
+  QpProblem inserted = q;
+  inserted.G.resize(3, 2);
+  inserted.G << 1.0, 1.0, 1.0, 0.0, 0.0, 1.0;
+  inserted.lg = Eigen::Vector3d::Constant(-kInfinity);
+  inserted.ug = Eigen::Vector3d(100.0, 1.0, 1.0);
+  for (const bool renumber : {true, false}) {
+    QpSolver solver({.method = QpMethod::kActiveSet});
+    ASSERT_EQ(solver.solve(q).status, QpStatus::kSolved);
+    const int new_row_of_old[] = {1, 2};
+    if (renumber) solver.renumber_rows(new_row_of_old);
+    const QpResult& r = solver.solve(inserted);
+    ASSERT_EQ(r.status, QpStatus::kSolved);
+    EXPECT_EQ(r.method, QpMethod::kActiveSet);
+    EXPECT_NEAR(r.z[0], 1.0, 1e-12);
+    EXPECT_NEAR(r.z[1], 1.0, 1e-12);
+    if (renumber) {
+      EXPECT_EQ(r.active_set_iterations, 0);
+    } else {
+      EXPECT_GT(r.active_set_iterations, 0);
+    }
+  }
+}
+
 // H = diag(1, 0) is only semidefinite: the active set cannot factor it and the interior point
 // answers, which the result says. min ½z₁² − z₂ with z₂ ≤ 3: z = (0, 3), objective −3.
 TEST(DualActiveSetTest, SemidefiniteHessianFallsBackToTheInteriorPoint) {
