@@ -203,8 +203,9 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   data_.soft_bound = VecX::Zero(cap);
 
   a_entries_.resize(static_cast<std::size_t>(np_) * ns_ * ns_);
-  a_begin_.assign(np_ + 1, 0);
+  a_row_begin_.assign(static_cast<std::size_t>(np_) * ns_ + 1, 0);
   c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
+  c_row_begin_.assign(ny_ + 1, 0);
   a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
   Gamma_ = RowMatX::Zero(ns_, nc_ * nu_);
@@ -235,6 +236,14 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   Hp_ = RowMatX::Zero(nc_ * nu_, nc_ * nu_);
   fp_ = VecX::Zero(nc_ * nu_);
   soft_row_ = VecX::Zero(nc_ * nu_);
+  qp_col_of_phi_.assign(nc_ * nu_, 0);
+  phi_col_of_qp_.assign(nc_ * nu_, 0);
+  for (int i = 0; i < nc_; ++i) {
+    for (int c = 0; c < nu_; ++c) {
+      qp_col_of_phi_[c * nc_ + i] = i * nu_ + c;
+      phi_col_of_qp_[i * nu_ + c] = c * nc_ + i;
+    }
+  }
   phi_min_ = VecX::Zero(np_ * ny_);
   phi_max_ = VecX::Zero(np_ * ny_);
   move_lo_phi_ = VecX::Zero(nc_ * nu_);
@@ -331,8 +340,7 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // Listed by row (then column): the forward pass sums each row of Γ_j in one loop, and a
   // row's terms keep the order of the column-major listing this replaced (column ascending).
   for (int j = 0; j < np_; ++j) {
-    const int old_begin = a_begin_[j], old_end = a_begin_[j + 1];
-    a_begin_[j] = n;
+    const int old_begin = a_row_begin_[j * ns_], old_end = a_row_begin_[(j + 1) * ns_];
     const double* A = d.A[j].data();  // column-major n_s×n_s
     // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
     // time, and nonzero at every listed position, is the same set; only the values are read.
@@ -350,6 +358,7 @@ void IncrementalMpc::collect_plant_nonzeros() {
     }
     same = false;  // this step and every later one are listed anew
     for (int k = 0; k < ns_; ++k) {
+      a_row_begin_[j * ns_ + k] = n;
       for (int l = 0; l < ns_; ++l) {
         const double v = A[l * ns_ + k];
         if (v != 0.0) a_entries_[n++] = Entry{k, l, v};
@@ -360,13 +369,15 @@ void IncrementalMpc::collect_plant_nonzeros() {
     std::fill(a_pattern_.begin(), a_pattern_.end(), 0);
     for (int e = 0; e < n; ++e) a_pattern_[a_entries_[e].row * ns_ + a_entries_[e].col] = 1;
   }
-  a_begin_[np_] = n;
+  a_row_begin_[static_cast<std::size_t>(np_) * ns_] = n;
   c_count_ = 0;
   for (int k = 0; k < ny_; ++k) {
+    c_row_begin_[k] = c_count_;
     for (int l = 0; l < ns_; ++l) {
       if (d.C(k, l) != 0.0) c_entries_[c_count_++] = Entry{k, l, d.C(k, l)};
     }
   }
+  c_row_begin_[ny_] = c_count_;
   // The reach of each state (bit c: some move of input c changes it at some step): the
   // inputs of its B rows, closed over the union pattern of the A_j. Outside its reach a row of
   // Γ is zero at every step, and so is an output's row of Φ outside the union of the reaches
@@ -470,16 +481,15 @@ void IncrementalMpc::forward_pass() {
     // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
     // span lies inside it (reaches are closed over A), and its entries outside its own span
     // are exact zeros.
-    int e = a_begin_[j];
-    const int end = a_begin_[j + 1];
+    const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
     for (int k = 0; k < ns_; ++k) {
-      const int first = e;
-      for (; e < end && a_entries_[e].row == k; ++e) {
-        dsn_[k] += a_entries_[e].value * ds_[a_entries_[e].col];
-      }
+      const int first = row_begin[k], end = row_begin[k + 1];
+      double v = dsn_[k];
+      for (int e = first; e < end; ++e) v += a_entries_[e].value * ds_[a_entries_[e].col];
+      dsn_[k] = v;
       const int lo = state_span_lo_[k];
       combine_row(Gn->row(k).data() + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first],
-                  e - first, G->data() + lo, ld);
+                  end - first, G->data() + lo, ld);
     }
     if (j < nc_) {  // move j starts: its columns of Γ_{j−1} are zero, so B_j is all of them
       const MatX& B = d.B[j];
@@ -493,22 +503,21 @@ void IncrementalMpc::forward_pass() {
     std::swap(ds_, dsn_);
     // y_j = y_{j−1} + C ds_j row by row in scalars: ds_ was just written entry by entry, and a
     // vector load of it would wait for those stores to retire instead of forwarding them.
-    for (int ec = 0, k = 0; k < ny_; ++k) {
+    for (int k = 0; k < ny_; ++k) {
       double v = y_[k];
-      for (; ec < c_count_ && c_entries_[ec].row == k; ++ec) {
+      for (int ec = c_row_begin_[k]; ec < c_row_begin_[k + 1]; ++ec) {
         v += c_entries_[ec].value * ds_[c_entries_[ec].col];
       }
       y_[k] = v;
       Yfree_[j * ny_ + k] = v;
     }
     // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
-    for (int ec = 0, k = 0; k < ny_; ++k) {
-      const int first = ec;
-      while (ec < c_count_ && c_entries_[ec].row == k) ++ec;
+    for (int k = 0; k < ny_; ++k) {
+      const int first = c_row_begin_[k];
       const int lo = output_span_lo_[k];
       const double* previous = j > 0 ? Phi_.row((j - 1) * ny_ + k).data() + lo : nullptr;
       combine_row(Phi_.row(j * ny_ + k).data() + lo, output_span_hi_[k] - lo, previous,
-                  &c_entries_[first], ec - first, G->data() + lo, ld);
+                  &c_entries_[first], c_row_begin_[k + 1] - first, G->data() + lo, ld);
     }
   }
 }
@@ -602,18 +611,17 @@ void IncrementalMpc::build_cost() {
       }
     }
   }
+  // To the QP's order: Hp_ made symmetric, then each column of H gathered from a row of it.
+  for (int a = 1; a < nU; ++a) {
+    for (int b = 0; b < a; ++b) Hp_(b, a) = Hp_(a, b);
+  }
   auto Huu = qp_.H.topLeftCorner(nU, nU);
-  for (int cb = 0; cb < nu_; ++cb) {
-    for (int ib = 0; ib < nc_; ++ib) {
-      const int b = cb * nc_ + ib, qb = ib * nu_ + cb;
-      qp_.f[qb] = fp_[b];
-      for (int ca = 0; ca < nu_; ++ca) {
-        for (int ia = 0; ia < nc_; ++ia) {
-          const int a = ca * nc_ + ia;
-          Huu(ia * nu_ + ca, qb) = 2.0 * (a >= b ? Hp_(a, b) : Hp_(b, a));
-        }
-      }
-    }
+  for (int qb = 0; qb < nU; ++qb) {
+    const int b = phi_col_of_qp_[qb];
+    qp_.f[qb] = fp_[b];
+    const double* hb = Hp_.row(b).data();
+    double* out = &Huu(0, qb);
+    for (int qa = 0; qa < nU; ++qa) out[qa] = 2.0 * hb[phi_col_of_qp_[qa]];
   }
   for (int i = 0; i < nc_; ++i) {
     for (int c = 0; c < nu_; ++c) Huu(i * nu_ + c, i * nu_ + c) += 2.0 * options_.move_weight[c];
@@ -630,11 +638,17 @@ void IncrementalMpc::resize_soft_rows(int needed) {
   const int blocks = (needed + kSoftRowBlock - 1) / kSoftRowBlock;
   const int wanted = std::min(cap, blocks * kSoftRowBlock);
   if (wanted <= soft_rows_in_qp_) return;
+  const int old_m = soft_rows_begin_ + soft_rows_in_qp_;
   soft_rows_in_qp_ = wanted;
   const int m = soft_rows_begin_ + wanted;
   qp_.G.conservativeResize(m, nz_);  // keeps the constant input-limit rows at the top
   qp_.lg.conservativeResize(m);
   qp_.ug.conservativeResize(m);
+  // The new rows are padding until written: both sides infinite (a soft row's upper side
+  // stays so).
+  qp_.G.bottomRows(m - old_m).setZero();
+  qp_.lg.tail(m - old_m).setConstant(-qp::kInfinity);
+  qp_.ug.tail(m - old_m).setConstant(qp::kInfinity);
 }
 
 void IncrementalMpc::assemble_qp() {
@@ -759,24 +773,17 @@ void IncrementalMpc::assemble_soft_rows() {
         if (terms < kTerms) coef[terms] = a;
         ++terms;
       }
-      double* g_out = &qp_.G(g_row, 0);
-      if (terms <= kTerms) {
-        for (int i = 0; i < nc_; ++i) {
-          for (int c = 0; c < nu_; ++c) {
-            const int p = c * nc_ + i;
-            double v = 0.0;
-            if (terms == 3) {  // the UAV's threat and terrain rows: one term an output
-              v += coef[0] * rows[0][p];
-              v += coef[1] * rows[1][p];
-              v += coef[2] * rows[2][p];
-            } else {
-              for (int t = 0; t < terms; ++t) v += coef[t] * rows[t][p];
-            }
-            g_out[(i * nu_ + c) * stride] = v;
-          }
-        }
+      double* __restrict row = soft_row_.data();
+      if (terms == 3) {  // the UAV's threat, neighbour and sloped terrain rows
+        const double c0 = coef[0], c1 = coef[1], c2 = coef[2];
+        const double* __restrict r0 = rows[0];
+        const double* __restrict r1 = rows[1];
+        const double* __restrict r2 = rows[2];
+        for (int p = 0; p < nU; ++p) row[p] = c0 * r0[p] + c1 * r1[p] + c2 * r2[p];
+      } else if (terms <= kTerms) {
+        std::fill_n(row, nU, 0.0);
+        for (int t = 0; t < terms; ++t) axpy(row, nU, coef[t], rows[t]);
       } else {
-        double* row = soft_row_.data();  // in Φ's column order, summed contiguously
         std::fill_n(row, nU, 0.0);
         for (int k = 0; k < ny_; ++k) {
           const double a = d.soft_normal(k, r);
@@ -784,19 +791,18 @@ void IncrementalMpc::assemble_soft_rows() {
           const int lo = output_span_lo_[k];
           axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
         }
-        for (int i = 0; i < nc_; ++i) {
-          for (int c = 0; c < nu_; ++c) g_out[(i * nu_ + c) * stride] = row[c * nc_ + i];
-        }
       }
+      double* g_out = &qp_.G(g_row, 0);
+      for (int p = 0; p < nU; ++p) g_out[qp_col_of_phi_[p] * stride] = row[p];
       for (int g = 0; g < ng_; ++g) g_out[(nU + g) * stride] = 0.0;
       g_out[(nU + d.soft_group[r]) * stride] = 1.0;
       qp_.lg[g_row] = kept_bounds_[s];
-    } else {
+    } else if (s < soft_rows_written_) {  // a padding row that held a soft row last time
       qp_.G.row(g_row).setZero();
       qp_.lg[g_row] = -qp::kInfinity;
     }
-    qp_.ug[g_row] = qp::kInfinity;
   }
+  soft_rows_written_ = kept_count_;
 }
 
 void IncrementalMpc::renumber_soft_rows(int old_soft_rows_in_qp) {
@@ -872,19 +878,19 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
     if (j < nc_) w_.noalias() += d.B[j].lazyProduct(result_.moves.segment(j * nu_, nu_));
     // Row by row in scalars (the entries are listed by row): each value is used right where
     // it is computed, never reloaded as a vector from scalar stores (a store-forwarding stall).
-    const int end = a_begin_[j + 1];
-    for (int e = a_begin_[j], k = 0; k < ns_; ++k) {
+    const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
+    for (int k = 0; k < ns_; ++k) {
       double v = w_[k];
-      for (; e < end && a_entries_[e].row == k; ++e) {
+      for (int e = row_begin[k]; e < row_begin[k + 1]; ++e) {
         v += a_entries_[e].value * ds_[a_entries_[e].col];
       }
       dsn_[k] = v;
       s[k] = s_prev[k] + v;
     }
     std::swap(ds_, dsn_);
-    for (int e = 0, k = 0; k < ny_; ++k) {
+    for (int k = 0; k < ny_; ++k) {
       double v = y_prev[k];
-      for (; e < c_count_ && c_entries_[e].row == k; ++e) {
+      for (int e = c_row_begin_[k]; e < c_row_begin_[k + 1]; ++e) {
         v += c_entries_[e].value * ds_[c_entries_[e].col];
       }
       y[k] = v;

@@ -238,6 +238,7 @@ class IncrementalMpc {
 
   static constexpr int kSoftRowBlock = 16;
   int soft_rows_in_qp_ = 0;
+  int soft_rows_written_ = 0;  // the leading QP soft rows that may hold a row (others: padding)
 
   IncrementalMpcDims dims_;
   IncrementalMpcOptions options_;
@@ -254,9 +255,12 @@ class IncrementalMpc {
     int row, col;
     double value;
   };
+  // Listed by step, then row: row k of A_j is a_entries_[a_row_begin_[j·n_s + k],
+  // a_row_begin_[j·n_s + k + 1]), and row k of C is c_entries_[c_row_begin_[k], …[k + 1]).
   std::vector<Entry> a_entries_;  // capacity Np·n_s²
-  std::vector<int> a_begin_;      // Np + 1 offsets into a_entries_
+  std::vector<int> a_row_begin_;  // Np·n_s + 1 offsets into a_entries_
   std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
+  std::vector<int> c_row_begin_;  // n_y + 1 offsets into c_entries_
   int c_count_ = 0;
   std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
 
@@ -284,6 +288,8 @@ class IncrementalMpc {
   RowMatX Hp_;  // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower triangle (a ≥ b)
   VecX fp_;     // Nc·n_u: f_u in Φ's column order
   VecX soft_row_;  // Nc·n_u: one soft row's aᵀΦ_j
+  // Φ's column order (input, then move) to the QP's (move, then input), and back.
+  std::vector<int> qp_col_of_phi_, phi_col_of_qp_;  // Nc·n_u
   // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows),
   // and the box in Φ's column order.
   VecX phi_min_, phi_max_;        // Np·n_y

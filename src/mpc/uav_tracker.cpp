@@ -117,6 +117,7 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   const vehicle::Jacobians J = vehicle::discrete_jacobians(
       vehicle::State::Zero(), options.vehicle, options.prediction_step_s);
   for (int j = 0; j < np_; ++j) {
+    d.A[j] = J.A;  // the state-independent entries; step() rewrites the others
     d.B[j] = J.B;
     d.E[j] = J.E;
   }
@@ -422,8 +423,9 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   // 2–4. Nominal trajectory, Jacobians, wind feed-forward, reference.
   build_nominal(t_s, state, reference);
   for (int j = 0; j < np_; ++j) {
-    // B_j and E_j do not depend on the state (eq. 4): the constructor wrote them once.
-    d.A[j] = vehicle::discrete_state_jacobian(nominal_states_.col(j), p, dt);
+    // B_j, E_j and all but four entries of A_j do not depend on the state (eq. 4): the
+    // constructor wrote them once.
+    vehicle::update_discrete_state_jacobian(nominal_states_.col(j), dt, d.A[j]);
     d.reference.col(j) = reference_points_[j + 1].position_m;
   }
   d.disturbance_delta.setZero();

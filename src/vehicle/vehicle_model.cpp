@@ -78,6 +78,17 @@ StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, doub
   return StateMatrix::Identity() + dt_s * continuous_state_jacobian(s, p);
 }
 
+void update_discrete_state_jacobian(const State& s, double dt_s, Eigen::Ref<Eigen::MatrixXd> A_d) {
+  // The same products as I + Δt·continuous_state_jacobian (0 + Δt·a is Δt·a exactly).
+  const double c = std::cos(s[kPsi]);
+  const double sn = std::sin(s[kPsi]);
+  const double v = s[kV];
+  A_d(kX, kPsi) = dt_s * (-v * sn);
+  A_d(kX, kV) = dt_s * c;
+  A_d(kY, kPsi) = dt_s * (v * c);
+  A_d(kY, kV) = dt_s * sn;
+}
+
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s) {
   Jacobians J = continuous_jacobians(s, p);
   J.A = discrete_state_jacobian(s, p, dt_s);

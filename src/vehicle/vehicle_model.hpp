@@ -82,6 +82,11 @@ StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p);
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s);
 /// A_d = I + Δt·A alone.
 StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, double dt_s);
+/// Rewrites in A_d, a discrete_state_jacobian of the same parameters and step at any state,
+/// the four entries that depend on the state (x and y against speed and heading), so that it
+/// equals discrete_state_jacobian(s, p, dt_s) exactly. The MPC's step calls it 40 times: it
+/// skips building and copying the constant 45 entries and the matrix's temporaries.
+void update_discrete_state_jacobian(const State& s, double dt_s, Eigen::Ref<Eigen::MatrixXd> A_d);
 
 /// Clamps a command into the maneuver limits at state s: the speed band, |ω_c| ≤ v/R_min
 /// (with v the current horizontal speed, floored at the minimum speed), and the climb

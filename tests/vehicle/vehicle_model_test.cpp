@@ -162,6 +162,19 @@ TEST(VehicleModel, DiscreteInputAndWindJacobiansDoNotDependOnTheState) {
   }
 }
 
+// The tracker writes A_d once and then only its state-dependent entries each step: the result
+// must be exactly the full Jacobian at the new state, whatever state A_d was built at (an
+// entry missed would keep the old state's value; a heading of 0 makes sin ψ an exact zero).
+TEST(VehicleModel, UpdatedDiscreteStateJacobianEqualsTheFullOne) {
+  const VehicleParams p = default_params();
+  Eigen::MatrixXd A = discrete_state_jacobian(make_state(0.7, 9.0, 0.1, 0.2), p, 0.1);
+  for (const State& s : {make_state(2.1, 11.0, -0.2, 0.8), make_state(-3.0, 7.5, 0.4, -1.9),
+                         make_state(0.0, 12.0, 0.0, 0.0)}) {
+    update_discrete_state_jacobian(s, 0.1, A);
+    EXPECT_EQ(A, Eigen::MatrixXd(discrete_state_jacobian(s, p, 0.1)));
+  }
+}
+
 TEST(VehicleModel, ClampRespectsSpeedTurnClimbAndPitchLimits) {
   VehicleParams p = default_params();
   p.max_pitch_rad = deg_to_rad(10.0);  // makes the pitch limit tighter than w_max at 10 m/s
