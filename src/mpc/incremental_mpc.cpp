@@ -96,22 +96,6 @@ void IncrementalMpcData::set_time_invariant(const MatX& A_, const MatX& B_, cons
   C = C_;
 }
 
-bool IncrementalMpcData::add_soft_row(int step, const Eigen::Ref<const VecX>& a, double bound,
-                                      int group, int source) {
-  const int capacity = static_cast<int>(soft_step.size());
-  if (soft_row_count >= capacity || step < 0 || step >= reference.cols() || group < 0 ||
-      source < 0 || a.size() != soft_normal.rows()) {
-    return false;
-  }
-  soft_step[soft_row_count] = step;
-  soft_group[soft_row_count] = group;
-  soft_source[soft_row_count] = source;
-  soft_normal.col(soft_row_count) = a;
-  soft_bound[soft_row_count] = bound;
-  ++soft_row_count;
-  return true;
-}
-
 IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const IncrementalMpcOptions& options)
     : dims_(dims), options_(options), solver_(options.qp_settings) {
   require(dims.state_dim >= 1, "dims.state_dim", "must be >= 1");
@@ -235,14 +219,10 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   group_rows_.assign(np_ * ny_, 0);
   Hp_ = RowMatX::Zero(nc_ * nu_, nc_ * nu_);
   fp_ = VecX::Zero(nc_ * nu_);
-  soft_row_ = VecX::Zero(nc_ * nu_);
-  qp_col_of_phi_.assign(nc_ * nu_, 0);
+  soft_block_ = RowMatX::Zero(cap, nc_ * nu_);
   phi_col_of_qp_.assign(nc_ * nu_, 0);
   for (int i = 0; i < nc_; ++i) {
-    for (int c = 0; c < nu_; ++c) {
-      qp_col_of_phi_[c * nc_ + i] = i * nu_ + c;
-      phi_col_of_qp_[i * nu_ + c] = c * nc_ + i;
-    }
+    for (int c = 0; c < nu_; ++c) phi_col_of_qp_[i * nu_ + c] = c * nc_ + i;
   }
   phi_min_ = VecX::Zero(np_ * ny_);
   phi_max_ = VecX::Zero(np_ * ny_);
@@ -752,57 +732,64 @@ void IncrementalMpc::assemble_soft_rows() {
   }
 
   resize_soft_rows(kept_count_);
-  const Eigen::Index stride = qp_.G.outerStride();
-  for (int s = 0; s < soft_rows_in_qp_; ++s) {
-    const int g_row = soft_rows_begin_ + s;
-    if (s < kept_count_) {
-      const int r = kept_rows_[s];
-      const int j = d.soft_step[r];
-      // The rows of Φ_j the soft row reads (a_k ≠ 0). Φ_j's entries outside a reach or right
-      // of the moves started by step j are exact zeros, so every entry of the soft row can sum
-      // all of them: aᵀΦ_j(:, p) for each column p, in output order, stored once, in the QP's
-      // column order (move, then input) of the column-major G, the slack columns last.
-      constexpr int kTerms = 4;
-      const double* rows[kTerms] = {};
-      double coef[kTerms] = {};
-      int terms = 0;
+  // Each kept row aᵀΦ_j is summed contiguously in Φ's column order into a row of soft_block_
+  // (vector loops); G is column-major, so the block is then moved column by column, each
+  // QP column (move, then input) a contiguous run of G, the slack columns last.
+  for (int s = 0; s < kept_count_; ++s) {
+    const int r = kept_rows_[s];
+    const int j = d.soft_step[r];
+    // The rows of Φ_j the soft row reads (a_k ≠ 0). Φ_j's entries outside a reach or right of
+    // the moves started by step j are exact zeros, so every entry of the soft row can sum all
+    // of them.
+    constexpr int kTerms = 4;
+    const double* rows[kTerms] = {};
+    double coef[kTerms] = {};
+    int terms = 0;
+    for (int k = 0; k < ny_; ++k) {
+      const double a = d.soft_normal(k, r);
+      if (a == 0.0) continue;
+      if (terms < kTerms) rows[terms] = Phi_.row(j * ny_ + k).data();
+      if (terms < kTerms) coef[terms] = a;
+      ++terms;
+    }
+    double* __restrict row = soft_block_.row(s).data();
+    if (terms == 3) {  // the UAV's threat, neighbour and sloped terrain rows
+      const double c0 = coef[0], c1 = coef[1], c2 = coef[2];
+      const double* __restrict r0 = rows[0];
+      const double* __restrict r1 = rows[1];
+      const double* __restrict r2 = rows[2];
+      for (int p = 0; p < nU; ++p) row[p] = c0 * r0[p] + c1 * r1[p] + c2 * r2[p];
+    } else if (terms <= kTerms) {
+      std::fill_n(row, nU, 0.0);
+      for (int t = 0; t < terms; ++t) axpy(row, nU, coef[t], rows[t]);
+    } else {
+      std::fill_n(row, nU, 0.0);
       for (int k = 0; k < ny_; ++k) {
         const double a = d.soft_normal(k, r);
         if (a == 0.0) continue;
-        if (terms < kTerms) rows[terms] = Phi_.row(j * ny_ + k).data();
-        if (terms < kTerms) coef[terms] = a;
-        ++terms;
+        const int lo = output_span_lo_[k];
+        axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
       }
-      double* __restrict row = soft_row_.data();
-      if (terms == 3) {  // the UAV's threat, neighbour and sloped terrain rows
-        const double c0 = coef[0], c1 = coef[1], c2 = coef[2];
-        const double* __restrict r0 = rows[0];
-        const double* __restrict r1 = rows[1];
-        const double* __restrict r2 = rows[2];
-        for (int p = 0; p < nU; ++p) row[p] = c0 * r0[p] + c1 * r1[p] + c2 * r2[p];
-      } else if (terms <= kTerms) {
-        std::fill_n(row, nU, 0.0);
-        for (int t = 0; t < terms; ++t) axpy(row, nU, coef[t], rows[t]);
-      } else {
-        std::fill_n(row, nU, 0.0);
-        for (int k = 0; k < ny_; ++k) {
-          const double a = d.soft_normal(k, r);
-          if (a == 0.0) continue;
-          const int lo = output_span_lo_[k];
-          axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
-        }
-      }
-      double* g_out = &qp_.G(g_row, 0);
-      for (int p = 0; p < nU; ++p) g_out[qp_col_of_phi_[p] * stride] = row[p];
-      for (int g = 0; g < ng_; ++g) g_out[(nU + g) * stride] = 0.0;
-      g_out[(nU + d.soft_group[r]) * stride] = 1.0;
-      qp_.lg[g_row] = kept_bounds_[s];
-    } else if (s < soft_rows_written_) {  // a padding row that held a soft row last time
-      qp_.G.row(g_row).setZero();
-      qp_.lg[g_row] = -qp::kInfinity;
     }
   }
-  soft_rows_written_ = kept_count_;
+  const int first = soft_rows_begin_, kept = kept_count_;
+  // Padding rows that held a soft row last time are cleared (the others stay clear).
+  const int stale = std::max(soft_rows_written_ - kept, 0);
+  const Eigen::Index block_ld = soft_block_.outerStride();
+  for (int q = 0; q < nU; ++q) {
+    double* __restrict column = qp_.G.col(q).data() + first;
+    const double* __restrict source = soft_block_.data() + phi_col_of_qp_[q];
+    for (int s = 0; s < kept; ++s) column[s] = source[s * block_ld];
+    std::fill_n(column + kept, stale, 0.0);
+  }
+  for (int g = 0; g < ng_; ++g) {
+    double* column = qp_.G.col(nU + g).data() + first;
+    for (int s = 0; s < kept; ++s) column[s] = d.soft_group[kept_rows_[s]] == g ? 1.0 : 0.0;
+    std::fill_n(column + kept, stale, 0.0);
+  }
+  qp_.lg.segment(first, kept) = kept_bounds_.head(kept);
+  qp_.lg.segment(first + kept, stale).setConstant(-qp::kInfinity);
+  soft_rows_written_ = kept;
 }
 
 void IncrementalMpc::renumber_soft_rows(int old_soft_rows_in_qp) {

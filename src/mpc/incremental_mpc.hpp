@@ -161,6 +161,23 @@ struct IncrementalMpcData {
   VecX soft_bound;               ///< capacity
 };
 
+// Inline: a tracker adds a hundred rows or more a step.
+inline bool IncrementalMpcData::add_soft_row(int step, const Eigen::Ref<const VecX>& a,
+                                             double bound, int group, int source) {
+  const int capacity = static_cast<int>(soft_step.size());
+  if (soft_row_count >= capacity || step < 0 || step >= reference.cols() || group < 0 ||
+      source < 0 || a.size() != soft_normal.rows()) {
+    return false;
+  }
+  soft_step[soft_row_count] = step;
+  soft_group[soft_row_count] = group;
+  soft_source[soft_row_count] = source;
+  soft_normal.col(soft_row_count) = a;
+  soft_bound[soft_row_count] = bound;
+  ++soft_row_count;
+  return true;
+}
+
 /// Outcome of one step. Unless the QP was solved, the moves are zero and the predictions
 /// are the free response (inputs held), i.e. the plan a caller falls back to.
 struct IncrementalMpcResult {
@@ -287,9 +304,8 @@ class IncrementalMpc {
   int groups_ = 0;
   RowMatX Hp_;  // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower triangle (a ≥ b)
   VecX fp_;     // Nc·n_u: f_u in Φ's column order
-  VecX soft_row_;  // Nc·n_u: one soft row's aᵀΦ_j
-  // Φ's column order (input, then move) to the QP's (move, then input), and back.
-  std::vector<int> qp_col_of_phi_, phi_col_of_qp_;  // Nc·n_u
+  RowMatX soft_block_;  // capacity × Nc·n_u: the kept soft rows' aᵀΦ_j in Φ's column order
+  std::vector<int> phi_col_of_qp_;  // Nc·n_u: the QP's column q is Φ's column phi_col_of_qp_[q]
   // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows),
   // and the box in Φ's column order.
   VecX phi_min_, phi_max_;        // Np·n_y
