@@ -77,8 +77,10 @@ inline __attribute__((always_inline)) void combine_row(double* __restrict dst, i
   }
 }
 
-// The number of nonzero entries of x[0..n) (an integer sum, which vectorizes).
-RIDGELINE_SIMD_CLONES int count_nonzeros(const double* x, int n) {
+// The number of nonzero entries of x[0..n) (an integer sum, which vectorizes). Inlined into
+// collect_plant_nonzeros's clones: a call through the clones' dispatcher for 49 entries cost
+// about as much as the count.
+inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n) {
   int count = 0;
   for (int i = 0; i < n; ++i) count += x[i] != 0.0 ? 1 : 0;
   return count;
@@ -190,6 +192,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   a_row_begin_.assign(static_cast<std::size_t>(np_) * ns_ + 1, 0);
   c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
   c_row_begin_.assign(ny_ + 1, 0);
+  b_entries_.resize(static_cast<std::size_t>(nc_) * ns_ * nu_);
+  b_row_begin_.assign(static_cast<std::size_t>(nc_) * ns_ + 1, 0);
   a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
   Gamma_ = RowMatX::Zero(ns_, nc_ * nu_);
@@ -362,14 +366,22 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // inputs of its B rows, closed over the union pattern of the A_j. Outside its reach a row of
   // Γ is zero at every step, and so is an output's row of Φ outside the union of the reaches
   // its C row reads.
+  // The nonzeros of the B_j of the moves (j < Nc) are listed by row on the way.
   std::fill(state_reach_.begin(), state_reach_.end(), 0);
+  int nb = 0;
   for (int j = 0; j < nc_; ++j) {
+    const MatX& B = d.B[j];
     for (int k = 0; k < ns_; ++k) {
+      b_row_begin_[j * ns_ + k] = nb;
       for (int c = 0; c < nu_; ++c) {
-        if (d.B[j](k, c) != 0.0) state_reach_[k] |= std::uint64_t{1} << c;
+        const double v = B(k, c);
+        if (v == 0.0) continue;
+        b_entries_[nb++] = Entry{k, c, v};
+        state_reach_[k] |= std::uint64_t{1} << c;
       }
     }
   }
+  b_row_begin_[nc_ * ns_] = nb;
   for (bool changed = true; changed;) {
     changed = false;
     for (int k = 0; k < ns_; ++k) {
@@ -472,11 +484,8 @@ void IncrementalMpc::forward_pass() {
                   end - first, G->data() + lo, ld);
     }
     if (j < nc_) {  // move j starts: its columns of Γ_{j−1} are zero, so B_j is all of them
-      const MatX& B = d.B[j];
-      for (int k = 0; k < ns_; ++k) {
-        for (int c = 0; c < nu_; ++c) {
-          if (((state_reach_[k] >> c) & 1U) != 0) (*Gn)(k, c * nc_ + j) = B(k, c);
-        }
+      for (int e = b_row_begin_[j * ns_]; e < b_row_begin_[(j + 1) * ns_]; ++e) {
+        (*Gn)(b_entries_[e].row, b_entries_[e].col * nc_ + j) = b_entries_[e].value;
       }
     }
     std::swap(G, Gn);
@@ -862,7 +871,16 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
     if (nd_ > 0 && !d.disturbance_delta.col(j).isZero(0.0)) {
       w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
     }
-    if (j < nc_) w_.noalias() += d.B[j].lazyProduct(result_.moves.segment(j * nu_, nu_));
+    if (j < nc_) {  // w += B_j Δu_j over B_j's nonzeros, each row's product summed first
+      const double* du = result_.moves.data() + j * nu_;
+      for (int k = 0; k < ns_; ++k) {
+        const int first = b_row_begin_[j * ns_ + k], end = b_row_begin_[j * ns_ + k + 1];
+        if (first == end) continue;
+        double t = 0.0;
+        for (int e = first; e < end; ++e) t += b_entries_[e].value * du[b_entries_[e].col];
+        w_[k] += t;
+      }
+    }
     // Row by row in scalars (the entries are listed by row): each value is used right where
     // it is computed, never reloaded as a vector from scalar stores (a store-forwarding stall).
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];

@@ -240,12 +240,13 @@ class IncrementalMpc {
 
  private:
   std::string_view check_data() const;
-  void collect_plant_nonzeros();
+
   void group_rows_by_span();
   void assemble_qp();
   // The hot loops, compiled for AVX2 too (core/simd_clones.hpp). They stay private: GCC
   // emits the dispatcher of a cloned function in each file that calls it, and only
   // incremental_mpc.cpp holds the clones.
+  RIDGELINE_SIMD_CLONES void collect_plant_nonzeros();
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
   RIDGELINE_SIMD_CLONES void assemble_soft_rows();
@@ -278,6 +279,10 @@ class IncrementalMpc {
   std::vector<int> a_row_begin_;  // Np·n_s + 1 offsets into a_entries_
   std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
   std::vector<int> c_row_begin_;  // n_y + 1 offsets into c_entries_
+  // The nonzeros of B_j for the moves (j < Nc), listed the same way (row k of B_j:
+  // b_entries_[b_row_begin_[j·n_s + k], …[j·n_s + k + 1]); col is the input).
+  std::vector<Entry> b_entries_;  // capacity Nc·n_s·n_u
+  std::vector<int> b_row_begin_;  // Nc·n_s + 1
   int c_count_ = 0;
   std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
 
