@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Householder>
 
@@ -49,28 +50,33 @@ struct Rotation {
 // by columns: column j of L is H's minus the earlier columns k < j weighted by L(j, k),
 // contiguous axpys. For the MPC's n ≈ 30 this runs in about half the instructions of
 // Eigen's blocked LLT, whose panel products are sized for larger matrices.
-RIDGELINE_SIMD_CLONES bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
-  const Eigen::Index n = H.rows();
+// On raw column-major storage (leading dimensions ldh, ldl), so that the active set's small
+// Gram matrix uses it too; L may be H (in place).
+RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, double* L,
+                                          Eigen::Index ldl, Eigen::Index n) {
+  const auto L_at = [&](Eigen::Index i, Eigen::Index k) { return L[k * ldl + i]; };
   for (Eigen::Index j = 0; j < n; ++j) {
-    double* __restrict col = L.col(j).data();
-    const double* h = H.col(j).data();
-    for (Eigen::Index i = j; i < n; ++i) col[i] = h[i];
+    double* __restrict col = L + j * ldl;
+    const double* h = H + j * ldh;
+    if (h != col) {
+      for (Eigen::Index i = j; i < n; ++i) col[i] = h[i];
+    }
     // Four earlier columns a pass, so each entry of the column is loaded and stored once per
     // four updates (the subtractions keep their order k = 0, 1, …).
     Eigen::Index k = 0;
     for (; k + 4 <= j; k += 4) {
-      const double* __restrict l0 = L.col(k).data();
-      const double* __restrict l1 = L.col(k + 1).data();
-      const double* __restrict l2 = L.col(k + 2).data();
-      const double* __restrict l3 = L.col(k + 3).data();
-      const double a0 = L(j, k), a1 = L(j, k + 1), a2 = L(j, k + 2), a3 = L(j, k + 3);
+      const double* __restrict l0 = L + k * ldl;
+      const double* __restrict l1 = L + (k + 1) * ldl;
+      const double* __restrict l2 = L + (k + 2) * ldl;
+      const double* __restrict l3 = L + (k + 3) * ldl;
+      const double a0 = L_at(j, k), a1 = L_at(j, k + 1), a2 = L_at(j, k + 2), a3 = L_at(j, k + 3);
       for (Eigen::Index i = j; i < n; ++i) {
         col[i] = col[i] - a0 * l0[i] - a1 * l1[i] - a2 * l2[i] - a3 * l3[i];
       }
     }
     for (; k < j; ++k) {
-      const double* __restrict lk = L.col(k).data();
-      const double a = L(j, k);
+      const double* __restrict lk = L + k * ldl;
+      const double a = L_at(j, k);
       for (Eigen::Index i = j; i < n; ++i) col[i] -= a * lk[i];
     }
     const double pivot = col[j];
@@ -80,6 +86,58 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::Matri
     for (Eigen::Index i = j + 1; i < n; ++i) col[i] /= d;
   }
   return true;
+}
+
+bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
+  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows());
+}
+
+// Σ a[i]·b[i] over [0, n) in four interleaved partial sums (a fixed order, so the result is
+// reproducible; Eigen's reductions reassociate too).
+inline __attribute__((always_inline)) double dot(const double* __restrict a,
+                                                 const double* __restrict b, Eigen::Index n) {
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+  Eigen::Index i = 0;
+  for (; i + 4 <= n; i += 4) {
+    s0 += a[i] * b[i];
+    s1 += a[i + 1] * b[i + 1];
+    s2 += a[i + 2] * b[i + 2];
+    s3 += a[i + 3] * b[i + 3];
+  }
+  for (; i < n; ++i) s0 += a[i] * b[i];
+  return (s0 + s1) + (s2 + s3);
+}
+
+// y ← L⁻¹y for lower-triangular L (column-major, leading dimension ld): forward substitution
+// down L's columns, contiguous axpys; a zero stays zero without its axpy.
+RIDGELINE_SIMD_CLONES void forward_substitute(const double* L, Eigen::Index ld, Eigen::Index n,
+                                              double* __restrict y) {
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (y[j] == 0.0) continue;
+    const double* __restrict l = L + j * ld;
+    y[j] /= l[j];
+    const double a = y[j];
+    for (Eigen::Index i = j + 1; i < n; ++i) y[i] -= a * l[i];
+  }
+}
+
+// x ← L⁻ᵀx: x_j = (x_j − Σ_{i>j} L(i, j)·x_i) / L(j, j) from the last j, each sum a dot
+// product down a column of L.
+RIDGELINE_SIMD_CLONES void back_substitute_transposed(const double* L, Eigen::Index ld,
+                                                      Eigen::Index n, double* __restrict x) {
+  for (Eigen::Index j = n - 1; j >= 0; --j) {
+    const double* l = L + j * ld;
+    x[j] = (x[j] - dot(l + j + 1, x + j + 1, n - j - 1)) / l[j];
+  }
+}
+
+// S's lower triangle = YᵀY for the first k columns of Y (n rows), column-major S.
+RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, int k, double* S,
+                                      Eigen::Index lds) {
+  for (int a = 0; a < k; ++a) {
+    const double* ya = Y.col(a).data();
+    for (int b = a; b < k; ++b) S[a * lds + b] = dot(Y.col(b).data(), ya, n);
+  }
 }
 
 // Y[:, 0..k) ← L⁻¹Y by forward substitution, column by column: each step is a contiguous axpy
@@ -410,8 +468,12 @@ bool DualActiveSet::try_working_set(bool hot_start) {
     if (usable(saved_[k])) active_[count_++] = saved_[k];
   }
   const int k = count_;
+  // The small dense kernels below are hand-written: at n ≈ 33 and a working set of a few
+  // sides, Eigen's blocked triangular solves, rank update and LLT cost several times their
+  // arithmetic (about 20 k instructions of the MPC's step).
+  const Eigen::Index n = n_;
   jtf_ = q.f;  // g = L⁻¹f
-  L_.triangularView<Eigen::Lower>().solveInPlace(jtf_);
+  forward_substitute(L_.data(), L_.outerStride(), n, jtf_.data());
   x_ = -jtf_;
   if (k > 0) {
     auto Y = Y_.leftCols(k);
@@ -420,25 +482,33 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       add_normal(active_[j], 1.0, Y.col(j));
     }
     solve_lower_columns(L_, Y_, k);
-    Eigen::Ref<Eigen::MatrixXd> S(S_.topLeftCorner(k, k));
-    S.setZero();
-    S.selfadjointView<Eigen::Lower>().rankUpdate(Y.transpose());
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> chol(S);
-    if (chol.info() != Eigen::Success) return false;
-    const auto diag = chol.matrixLLT().diagonal().cwiseAbs();
-    const double ratio = diag.maxCoeff() / diag.minCoeff();
+    // S = YᵀY = NᵀH⁻¹N, factored in place.
+    double* S = S_.data();
+    const Eigen::Index lds = S_.outerStride();
+    gram_lower(Y_, n, k, S, lds);
+    if (!cholesky_lower(S, lds, S, lds, k)) return false;
+    double dmax = 0.0, dmin = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < k; ++j) {
+      dmax = std::max(dmax, std::abs(S[j * lds + j]));
+      dmin = std::min(dmin, std::abs(S[j * lds + j]));
+    }
+    const double ratio = dmax / dmin;
     if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
-    for (int j = 0; j < k; ++j) u_[j] = value(active_[j]);
-    u_.head(k).noalias() += Y.transpose() * jtf_;
-    chol.solveInPlace(u_.head(k));
+    for (int j = 0; j < k; ++j) u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
+    forward_substitute(S, lds, k, u_.data());
+    back_substitute_transposed(S, lds, k, u_.data());
     const double u_scale = std::max(1.0, u_.head(k).cwiseAbs().maxCoeff());
     for (int j = equalities; j < k; ++j) {
       if (u_[j] < -tolerance_ * u_scale) return false;
       u_[j] = std::max(u_[j], 0.0);
     }
-    x_.noalias() += Y * u_.head(k);
+    for (int j = 0; j < k; ++j) {  // x += Y u
+      const double a = u_[j];
+      const double* y = Y_.col(j).data();
+      for (Eigen::Index i = 0; i < n; ++i) x_[i] += a * y[i];
+    }
   }
-  L_.triangularView<Eigen::Lower>().transpose().solveInPlace(x_);
+  back_substitute_transposed(L_.data(), L_.outerStride(), n, x_.data());
   Side p;
   double violation = 0.0;
   if (most_violated(p, violation)) return false;
