@@ -224,14 +224,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   Hp_ = RowMatX::Zero(nc_ * nu_, nc_ * nu_);
   fp_ = VecX::Zero(nc_ * nu_);
   soft_block_ = RowMatX::Zero(cap, nc_ * nu_);
-  phi_col_of_qp_.assign(nc_ * nu_, 0);
-  for (int i = 0; i < nc_; ++i) {
-    for (int c = 0; c < nu_; ++c) phi_col_of_qp_[i * nu_ + c] = c * nc_ + i;
-  }
   phi_min_ = VecX::Zero(np_ * ny_);
   phi_max_ = VecX::Zero(np_ * ny_);
-  move_lo_phi_ = VecX::Zero(nc_ * nu_);
-  move_hi_phi_ = VecX::Zero(nc_ * nu_);
   kept_rows_.assign(cap, 0);
   kept_bounds_ = VecX::Zero(cap);
   previous_keys_.assign(cap, SoftRowKey{});
@@ -252,10 +246,11 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   qp_.ug = VecX::Constant(m, qp::kInfinity);
   qp_.A = MatX::Zero(0, nz_);
   qp_.b = VecX::Zero(0);
-  // u_{k+i} = u_{k−1} + Σ_{l≤i} Δu_{k+l}: a block lower-triangular matrix of identities.
-  for (int i = 0; i < nc_; ++i) {
-    for (int l = 0; l <= i; ++l) {
-      qp_.G.block(input_rows_begin_ + i * nu_, l * nu_, nu_, nu_).setIdentity();
+  // u_{k+i,c} = u_{k−1,c} + Σ_{l≤i} Δu_{k+l,c}: per input a lower-triangular block of ones
+  // (rows and columns in the QP's order, input then move).
+  for (int c = 0; c < nu_; ++c) {
+    for (int i = 0; i < nc_; ++i) {
+      for (int l = 0; l <= i; ++l) qp_.G(input_rows_begin_ + c * nc_ + i, c * nc_ + l) = 1.0;
     }
   }
   // Slack Hessian and gradient are constant.
@@ -520,8 +515,8 @@ void IncrementalMpc::build_cost() {
   // moves, the z rows in the 10 of the climb moves (a third of the flops of the dense
   // product). The lower triangle of a span is summed in 4 × 8 and 4 × 4 tiles, each tile's
   // sums kept in vector registers over all the rows of the span and stored once; the columns
-  // past the last multiple of four are summed entry by entry. Sums run in Φ's column order
-  // and are moved to the QP's (move, then input) at the end.
+  // past the last multiple of four are summed entry by entry. Sums run in Φ's column order,
+  // which is the QP's.
   Hp_.setZero();
   fp_.setZero();
   const Eigen::Index ld = Phi_.outerStride();
@@ -600,20 +595,19 @@ void IncrementalMpc::build_cost() {
       }
     }
   }
-  // To the QP's order: Hp_ made symmetric, then each column of H gathered from a row of it.
-  for (int a = 1; a < nU; ++a) {
-    for (int b = 0; b < a; ++b) Hp_(b, a) = Hp_(a, b);
-  }
+  // The QP orders ΔU as Φ does (input, then move): H is Hp_ doubled and made symmetric, f is
+  // fp_. Column b of H (column-major) is row b of the symmetric Hp_ (row-major): its lower part
+  // from row b's entries a ≥ b is column b of the triangle read down, its upper part row b.
   auto Huu = qp_.H.topLeftCorner(nU, nU);
-  for (int qb = 0; qb < nU; ++qb) {
-    const int b = phi_col_of_qp_[qb];
-    qp_.f[qb] = fp_[b];
+  for (int b = 0; b < nU; ++b) {
+    qp_.f[b] = fp_[b];
+    double* out = &Huu(0, b);
     const double* hb = Hp_.row(b).data();
-    double* out = &Huu(0, qb);
-    for (int qa = 0; qa < nU; ++qa) out[qa] = 2.0 * hb[phi_col_of_qp_[qa]];
+    for (int a = 0; a < b; ++a) out[a] = 2.0 * hb[a];
+    for (int a = b; a < nU; ++a) out[a] = 2.0 * Hp_(a, b);
   }
-  for (int i = 0; i < nc_; ++i) {
-    for (int c = 0; c < nu_; ++c) Huu(i * nu_ + c, i * nu_ + c) += 2.0 * options_.move_weight[c];
+  for (int c = 0; c < nu_; ++c) {
+    for (int i = 0; i < nc_; ++i) Huu(c * nc_ + i, c * nc_ + i) += 2.0 * options_.move_weight[c];
   }
 }
 
@@ -643,20 +637,20 @@ void IncrementalMpc::resize_soft_rows(int needed) {
 void IncrementalMpc::assemble_qp() {
   const IncrementalMpcData& d = data_;
   // Move bounds Δu_min ≤ Δu ≤ Δu_max (box); slack bounds σ ≥ 0 stay as built.
-  for (int i = 0; i < nc_; ++i) {
-    qp_.lb.segment(i * nu_, nu_) = d.move_min.col(i);
-    qp_.ub.segment(i * nu_, nu_) = d.move_max.col(i);
-  }
-  // Input limits: u_min − u_{k−1} ≤ Σ Δu ≤ u_max − u_{k−1}.
-  for (int i = 0; i < nc_; ++i) {
-    qp_.lg.segment(input_rows_begin_ + i * nu_, nu_) = d.input_min.col(i) - d.previous_input;
-    qp_.ug.segment(input_rows_begin_ + i * nu_, nu_) = d.input_max.col(i) - d.previous_input;
+  // Variables and input rows in the QP's order (input, then move: index c·Nc + i).
+  for (int c = 0; c < nu_; ++c) {
+    for (int i = 0; i < nc_; ++i) {
+      const int q = c * nc_ + i;
+      qp_.lb[q] = d.move_min(c, i);
+      qp_.ub[q] = d.move_max(c, i);
+      // Input limits: u_min − u_{k−1} ≤ Σ Δu ≤ u_max − u_{k−1}.
+      qp_.lg[input_rows_begin_ + q] = d.input_min(c, i) - d.previous_input[c];
+      qp_.ug[input_rows_begin_ + q] = d.input_max(c, i) - d.previous_input[c];
+    }
   }
   if (options_.hard_output_limits) {
-    for (int i = 0; i < nc_; ++i) {
-      for (int c = 0; c < nu_; ++c) {
-        qp_.G.col(i * nu_ + c).segment(output_rows_begin_, np_ * ny_) = Phi_.col(c * nc_ + i);
-      }
+    for (int q = 0; q < nc_ * nu_; ++q) {
+      qp_.G.col(q).segment(output_rows_begin_, np_ * ny_) = Phi_.col(q);
     }
     for (int j = 0; j < np_; ++j) {
       const auto yf = Yfree_.segment(j * ny_, ny_);
@@ -680,20 +674,14 @@ void IncrementalMpc::assemble_soft_rows() {
   // activation distance but farther than the moves can carry the UAV in its horizon (70–80 %
   // of the rows in `bench mpc` and the default mission) — and each one left out is a row the
   // QP neither stores, nor checks, nor carries in its working set.
-  for (int i = 0; i < nc_ && options_.drop_redundant_soft_rows; ++i) {
-    for (int c = 0; c < nu_; ++c) {
-      move_lo_phi_[c * nc_ + i] = qp_.lb[i * nu_ + c];
-      move_hi_phi_[c * nc_ + i] = qp_.ub[i * nu_ + c];
-    }
-  }
   const Eigen::Index ld = Phi_.outerStride();
   for (int r = 0; r < np_ * ny_ && options_.drop_redundant_soft_rows; ++r) {
     const int lo = output_span_lo_[r % ny_], size = output_span_hi_[r % ny_] - lo;
     const double* p = Phi_.data() + r * ld + lo;
-    const double* bl = move_lo_phi_.data() + lo;
-    const double* bh = move_hi_phi_.data() + lo;
+    const double* bl = qp_.lb.data() + lo;  // the move box, in Φ's column order too
+    const double* bh = qp_.ub.data() + lo;
     // Four partial sums a side (a bound, so the order of the sums does not matter); a zero
-    // entry adds zero even against an infinite bound.
+    // entry adds zero even against an infinite bound, and a NaN propagates (its row is kept).
     Vec4 mn = {}, mx = {};
     const Vec4 zero = {};
     int q = 0;
@@ -703,17 +691,18 @@ void IncrementalMpc::assemble_soft_rows() {
       std::memcpy(&l, bl + q, sizeof l);
       std::memcpy(&h, bh + q, sizeof h);
       const Vec4 vl = v * l, vh = v * h;
-      mn += v > zero ? vl : (v < zero ? vh : zero);
-      mx += v > zero ? vh : (v < zero ? vl : zero);
+      mn += v == zero ? zero : (v > zero ? vl : vh);
+      mx += v == zero ? zero : (v > zero ? vh : vl);
     }
     double row_min = mn[0] + mn[1] + mn[2] + mn[3];
     double row_max = mx[0] + mx[1] + mx[2] + mx[3];
     for (; q < size; ++q) {
       const double v = p[q];
+      if (v == 0.0) continue;
       if (v > 0.0) {
         row_min += v * bl[q];
         row_max += v * bh[q];
-      } else if (v < 0.0) {
+      } else {  // negative, or NaN (propagated)
         row_min += v * bh[q];
         row_max += v * bl[q];
       }
@@ -726,14 +715,19 @@ void IncrementalMpc::assemble_soft_rows() {
     const int j = d.soft_step[r];
     double bound = d.soft_bound[r];
     double lowest = 0.0;  // ≤ min of aᵀΦ_j ΔU over the box
+    double scale = 1.0;   // of the terms summed, for the margin below
     for (int k = 0; k < ny_; ++k) {
       const double a = d.soft_normal(k, r);
       if (a == 0.0) continue;
-      bound -= a * Yfree_[j * ny_ + k];
-      lowest += a * (a > 0.0 ? phi_min_[j * ny_ + k] : phi_max_[j * ny_ + k]);
+      const double free = a * Yfree_[j * ny_ + k];
+      const double lo = phi_min_[j * ny_ + k], hi = phi_max_[j * ny_ + k];
+      bound -= free;
+      lowest += a * (a > 0.0 ? lo : hi);
+      scale += std::abs(free) + std::abs(a) * std::max(std::abs(lo), std::abs(hi));
     }
     // The margin keeps a row whose redundancy is within the sums' round-off.
-    if (options_.drop_redundant_soft_rows && lowest - bound > 1e-9 * (1.0 + std::abs(bound))) {
+    if (options_.drop_redundant_soft_rows &&
+        lowest - bound > 1e-9 * (scale + std::abs(d.soft_bound[r]))) {
       continue;
     }
     kept_rows_[kept_count_] = r;
@@ -743,7 +737,7 @@ void IncrementalMpc::assemble_soft_rows() {
   resize_soft_rows(kept_count_);
   // Each kept row aᵀΦ_j is summed contiguously in Φ's column order into a row of soft_block_
   // (vector loops); G is column-major, so the block is then moved column by column, each
-  // QP column (move, then input) a contiguous run of G, the slack columns last.
+  // QP column a contiguous run of G, the slack columns last.
   for (int s = 0; s < kept_count_; ++s) {
     const int r = kept_rows_[s];
     const int j = d.soft_step[r];
@@ -787,7 +781,7 @@ void IncrementalMpc::assemble_soft_rows() {
   const Eigen::Index block_ld = soft_block_.outerStride();
   for (int q = 0; q < nU; ++q) {
     double* __restrict column = qp_.G.col(q).data() + first;
-    const double* __restrict source = soft_block_.data() + phi_col_of_qp_[q];
+    const double* __restrict source = soft_block_.data() + q;
     for (int s = 0; s < kept; ++s) column[s] = source[s * block_ld];
     std::fill_n(column + kept, stale, 0.0);
   }
@@ -842,13 +836,14 @@ void IncrementalMpc::renumber_soft_rows(int old_soft_rows_in_qp) {
 
 void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   const IncrementalMpcData& d = data_;
-  const int nU = nc_ * nu_;
   // Only a solved QP's moves are used; otherwise the result describes the zero-move plan
   // (inputs held), which is what a caller falls back to.
   const bool usable = qp_result.status == qp::QpStatus::kSolved && qp_result.z.size() == nz_ &&
                       qp_result.z.allFinite();
   if (usable) {
-    result_.moves = qp_result.z.head(nU);
+    for (int c = 0; c < nu_; ++c) {  // from the QP's order to the result's (move, then input)
+      for (int i = 0; i < nc_; ++i) result_.moves[i * nu_ + c] = qp_result.z[c * nc_ + i];
+    }
     result_.slack = qp_result.z.tail(ng_).cwiseMax(0.0);
   } else {
     result_.moves.setZero();

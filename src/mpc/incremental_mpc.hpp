@@ -47,6 +47,10 @@
 //
 // QP in z = [ΔU; σ] (n = Nc·n_u + slack groups): H = 2·blkdiag(ΦᵀQ̄Φ + R̄, ρ₂ I),
 // f = [−2 ΦᵀQ̄(R − Y_free); ρ₁ 1], Y_free = F ξ_k + Y_w the free response (moves zero).
+// The QP orders ΔU by input, then move (z_{c·Nc + i} = Δu_{k+i,c}), as Φ's columns: H, f and
+// the rows need no reordering, and inputs that no output couples (the UAV's climb against its
+// speed and turn) make H block-diagonal in contiguous blocks, whose Cholesky factor keeps the
+// zeros. IncrementalMpcResult::moves is ordered by move, then input.
 //
 // Condensing exploits the structure instead of multiplying dense stacked matrices:
 //  - Φ is built block by block by one forward pass over the stage matrices: Γ_j = ∂Δs_{j+1}/∂ΔU
@@ -187,7 +191,7 @@ struct IncrementalMpcResult {
   std::string_view invalid_field;
   VecX first_move;         ///< Δu_k
   VecX first_input;        ///< u_k = u_{k−1} + Δu_k (the QP's, before any clamping)
-  VecX moves;              ///< ΔU, Nc·n_u
+  VecX moves;              ///< ΔU, Nc·n_u, by move then input (Δu_k first)
   MatX predicted_outputs;  ///< n_y×Np, y_{k+j+1} under ΔU
   MatX predicted_states;   ///< n_s×Np, s_k + Σ Δs under ΔU
   VecX slack;              ///< σ_g per group
@@ -227,8 +231,8 @@ class IncrementalMpc {
 
   using RowMatX = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   /// The last build_prediction()'s prediction Y = Y_free + Φ ΔU: Φ is (Np·n_y)×(Nc·n_u) with
-  /// its columns ordered by input, then move (column c·Nc + i belongs to Δu_{k+i,c}; the QP's
-  /// ΔU is ordered by move, then input), and Y_free = F ξ_k + Y_w the outputs predicted with
+  /// its columns ordered by input, then move (column c·Nc + i belongs to Δu_{k+i,c}, as the
+  /// QP's variables), and Y_free = F ξ_k + Y_w the outputs predicted with
   /// every move zero (inputs held).
   const RowMatX& Phi() const { return Phi_; }
   const VecX& free_response() const { return Yfree_; }
@@ -310,11 +314,8 @@ class IncrementalMpc {
   RowMatX Hp_;  // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower triangle (a ≥ b)
   VecX fp_;     // Nc·n_u: f_u in Φ's column order
   RowMatX soft_block_;  // capacity × Nc·n_u: the kept soft rows' aᵀΦ_j in Φ's column order
-  std::vector<int> phi_col_of_qp_;  // Nc·n_u: the QP's column q is Φ's column phi_col_of_qp_[q]
-  // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows),
-  // and the box in Φ's column order.
-  VecX phi_min_, phi_max_;        // Np·n_y
-  VecX move_lo_phi_, move_hi_phi_;  // Nc·n_u
+  // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows).
+  VecX phi_min_, phi_max_;  // Np·n_y
   // This step's soft rows that can be violated (indices into data's rows), in data's order,
   // with their bounds on aᵀΦ_j ΔU + σ.
   std::vector<int> kept_rows_;  // capacity entries, the first kept_count_ used

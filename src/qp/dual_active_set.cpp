@@ -70,6 +70,9 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
       const double* __restrict l2 = L + (k + 2) * ldl;
       const double* __restrict l3 = L + (k + 3) * ldl;
       const double a0 = L_at(j, k), a1 = L_at(j, k + 1), a2 = L_at(j, k + 2), a3 = L_at(j, k + 3);
+      // Exact zeros of L (uncoupled variables, e.g. an MPC's inputs no output couples) add
+      // nothing: skipping them gives the same column.
+      if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
       for (Eigen::Index i = j; i < n; ++i) {
         col[i] = col[i] - a0 * l0[i] - a1 * l1[i] - a2 * l2[i] - a3 * l3[i];
       }
@@ -77,6 +80,7 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
     for (; k < j; ++k) {
       const double* __restrict lk = L + k * ldl;
       const double a = L_at(j, k);
+      if (a == 0.0) continue;
       for (Eigen::Index i = j; i < n; ++i) col[i] -= a * lk[i];
     }
     const double pivot = col[j];

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "core/error.hpp"
@@ -230,15 +231,25 @@ void randomize_step_and_solve(std::mt19937& rng, IncrementalMpc& mpc, int soft_r
 void expect_condensing_equals_dense(const IncrementalMpc& mpc) {
   const DenseCondensing ref = dense_condensing(mpc.data(), mpc.options());
   const qp::QpProblem& qp = mpc.qp_problem();
-  const int nU = mpc.options().control_horizon * mpc.dims().input_dim;
-  const auto H = qp.H.topLeftCorner(nU, nU);
-  EXPECT_LE((H - ref.H).cwiseAbs().maxCoeff(), 1e-11 * ref.H.cwiseAbs().maxCoeff());
-  EXPECT_EQ(H, H.transpose());
-  EXPECT_LE((qp.f.head(nU) - ref.f).cwiseAbs().maxCoeff(), 1e-11 * ref.f.cwiseAbs().maxCoeff());
+  const int nu = mpc.dims().input_dim, nc = mpc.options().control_horizon, nU = nc * nu;
+  // The QP orders ΔU by input, then move; the reference by move, then input.
+  std::vector<int> qp_index(nU);
+  for (int i = 0; i < nc; ++i) {
+    for (int c = 0; c < nu; ++c) qp_index[i * nu + c] = c * nc + i;
+  }
   const int soft = mpc.data().soft_row_count;
   const int first_soft = nU;  // after the input-limit rows (no hard output limits here)
   ASSERT_GE(qp.G.rows(), first_soft + soft);
-  const auto G = qp.G.block(first_soft, 0, soft, nU);
+  MatX H(nU, nU), G(soft, nU);
+  VecX f(nU);
+  for (int a = 0; a < nU; ++a) {
+    f[a] = qp.f[qp_index[a]];
+    for (int b = 0; b < nU; ++b) H(a, b) = qp.H(qp_index[a], qp_index[b]);
+    for (int r = 0; r < soft; ++r) G(r, a) = qp.G(first_soft + r, qp_index[a]);
+  }
+  EXPECT_LE((H - ref.H).cwiseAbs().maxCoeff(), 1e-11 * ref.H.cwiseAbs().maxCoeff());
+  EXPECT_EQ(H, H.transpose());
+  EXPECT_LE((f - ref.f).cwiseAbs().maxCoeff(), 1e-11 * ref.f.cwiseAbs().maxCoeff());
   EXPECT_LE((G - ref.G).cwiseAbs().maxCoeff(), 1e-11 * ref.G.cwiseAbs().maxCoeff());
   const auto lg = qp.lg.segment(first_soft, soft);
   EXPECT_LE((lg - ref.lg).cwiseAbs().maxCoeff(), 1e-11 * ref.lg.cwiseAbs().maxCoeff());
