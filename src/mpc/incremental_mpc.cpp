@@ -776,8 +776,9 @@ void IncrementalMpc::assemble_soft_rows() {
     }
   }
   const int first = soft_rows_begin_, kept = kept_count_;
-  // Padding rows that held a soft row last time are cleared (the others stay clear).
-  const int stale = std::max(soft_rows_written_ - kept, 0);
+  // Padding rows that held a soft row last time (previous_count_ of them lead the QP's soft
+  // rows) are cleared; the others stay clear.
+  const int stale = std::max(previous_count_ - kept, 0);
   const Eigen::Index block_ld = soft_block_.outerStride();
   for (int q = 0; q < nU; ++q) {
     double* __restrict column = qp_.G.col(q).data() + first;
@@ -792,7 +793,6 @@ void IncrementalMpc::assemble_soft_rows() {
   }
   qp_.lg.segment(first, kept) = kept_bounds_.head(kept);
   qp_.lg.segment(first + kept, stale).setConstant(-qp::kInfinity);
-  soft_rows_written_ = kept;
 }
 
 void IncrementalMpc::renumber_soft_rows(int old_soft_rows_in_qp) {

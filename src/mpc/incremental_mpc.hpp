@@ -260,7 +260,6 @@ class IncrementalMpc {
 
   static constexpr int kSoftRowBlock = 16;
   int soft_rows_in_qp_ = 0;
-  int soft_rows_written_ = 0;  // the leading QP soft rows that may hold a row (others: padding)
 
   IncrementalMpcDims dims_;
   IncrementalMpcOptions options_;
@@ -322,7 +321,8 @@ class IncrementalMpc {
   VecX kept_bounds_;            // capacity
   int kept_count_ = 0;
 
-  // The last solve's QP soft rows by (group, source, step), to renumber the QP's hot start.
+  // The last solve's QP soft rows by (group, source, step), to renumber the QP's hot start;
+  // they lead the QP's soft rows, and the rows after them are padding.
   struct SoftRowKey {
     int group = 0, source = 0, step = 0;
     auto operator<=>(const SoftRowKey&) const = default;

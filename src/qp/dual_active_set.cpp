@@ -96,6 +96,17 @@ bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
   return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows());
 }
 
+// max |L(j, j)| / min |L(j, j)| of a Cholesky factor: its square estimates the condition
+// number of the factored matrix.
+double diagonal_ratio(const double* L, Eigen::Index ld, Eigen::Index n) {
+  double dmax = 0.0, dmin = std::numeric_limits<double>::infinity();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    dmax = std::max(dmax, std::abs(L[j * ld + j]));
+    dmin = std::min(dmin, std::abs(L[j * ld + j]));
+  }
+  return dmax / dmin;
+}
+
 // Σ a[i]·b[i] over [0, n) in four interleaved partial sums (a fixed order, so the result is
 // reproducible; Eigen's reductions reassociate too).
 inline __attribute__((always_inline)) double dot(const double* __restrict a,
@@ -491,12 +502,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
     const Eigen::Index lds = S_.outerStride();
     gram_lower(Y_, n, k, S, lds);
     if (!cholesky_lower(S, lds, S, lds, k)) return false;
-    double dmax = 0.0, dmin = std::numeric_limits<double>::infinity();
-    for (int j = 0; j < k; ++j) {
-      dmax = std::max(dmax, std::abs(S[j * lds + j]));
-      dmin = std::min(dmin, std::abs(S[j * lds + j]));
-    }
-    const double ratio = dmax / dmin;
+    const double ratio = diagonal_ratio(S, lds, k);
     if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
     for (int j = 0; j < k; ++j) u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
     forward_substitute(S, lds, k, u_.data());
@@ -545,11 +551,8 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   iterations_ = 0;
   count_ = 0;
   if (!cholesky_lower(q.H, L_)) return ActiveSetOutcome::kNotStrictlyConvex;
-  {
-    const auto diag = L_.diagonal().cwiseAbs();
-    const double ratio = diag.maxCoeff() / diag.minCoeff();
-    if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
-  }
+  const double ratio = diagonal_ratio(L_.data(), L_.outerStride(), n_);
+  if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
   if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
   count_ = 0;
   // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the

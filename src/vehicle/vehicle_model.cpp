@@ -41,15 +41,27 @@ State rk4_step(const State& s, const Input& u, const Vec3& wind_m_s, const Vehic
   return s + (dt_s / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
 }
 
-StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p) {
+namespace {
+
+// The entries of ∂f/∂s that depend on the state (x and y against heading and speed), each
+// times `scale`: 1 for A itself, Δt for A_d = I + Δt·A, whose entries there are 0 + Δt·a, i.e.
+// Δt·a exactly. The one place these derivatives are written.
+template <typename Matrix>
+void write_state_dependent_entries(const State& s, double scale, Matrix& A) {
   const double c = std::cos(s[kPsi]);
   const double sn = std::sin(s[kPsi]);
   const double v = s[kV];
+  A(kX, kPsi) = scale * (-v * sn);
+  A(kX, kV) = scale * c;
+  A(kY, kPsi) = scale * (v * c);
+  A(kY, kV) = scale * sn;
+}
+
+}  // namespace
+
+StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p) {
   StateMatrix A = StateMatrix::Zero();
-  A(kX, kPsi) = -v * sn;
-  A(kX, kV) = c;
-  A(kY, kPsi) = v * c;
-  A(kY, kV) = sn;
+  write_state_dependent_entries(s, 1.0, A);
   A(kZ, kW) = 1.0;
   A(kPsi, kOmega) = 1.0;
   A(kV, kV) = -1.0 / p.tau_v_s;
@@ -79,14 +91,7 @@ StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, doub
 }
 
 void update_discrete_state_jacobian(const State& s, double dt_s, Eigen::Ref<Eigen::MatrixXd> A_d) {
-  // The same products as I + Δt·continuous_state_jacobian (0 + Δt·a is Δt·a exactly).
-  const double c = std::cos(s[kPsi]);
-  const double sn = std::sin(s[kPsi]);
-  const double v = s[kV];
-  A_d(kX, kPsi) = dt_s * (-v * sn);
-  A_d(kX, kV) = dt_s * c;
-  A_d(kY, kPsi) = dt_s * (v * c);
-  A_d(kY, kV) = dt_s * sn;
+  write_state_dependent_entries(s, dt_s, A_d);
 }
 
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s) {
