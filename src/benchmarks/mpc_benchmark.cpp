@@ -45,6 +45,8 @@ nlohmann::json MpcBenchmarkReport::to_json() const {
           {"max_slack_m", max_slack_m},
           {"soft_rows_mean", soft_rows_mean},
           {"soft_rows_in_qp_mean", soft_rows_in_qp_mean},
+          {"prediction_rows_computed_mean", prediction_rows_computed_mean},
+          {"prediction_rows", prediction_rows},
           {"ipopt_compared", ipopt_compared},
           {"ipopt_qp_us_median", ipopt_qp_us_median},
           {"ours_on_compared_qp_us_median", ours_on_compared_us_median},
@@ -112,7 +114,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   const int truth_substeps = 4;  // 200 Hz truth
   const double dt_truth = tracker_options.control_period_s / truth_substeps;
   double t = 0.0;
-  double rows = 0.0, rows_in_qp = 0.0;
+  double rows = 0.0, rows_in_qp = 0.0, rows_computed = 0.0;
   for (int k = 0; k < options.steps; ++k) {
     const double cpu_start = thread_cpu_us();
     const auto start = std::chrono::steady_clock::now();
@@ -130,6 +132,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
     iterations.push_back(r.qp_iterations);
     rows += r.soft_rows[0] + r.soft_rows[1] + r.soft_rows[2];
     rows_in_qp += r.soft_rows_in_qp;
+    rows_computed += tracker.mpc().last_result().prediction_rows_computed;
     report.max_slack_m = std::max(report.max_slack_m, r.max_slack_m());
     if (r.qp_status != qp::QpStatus::kSolved) ++report.not_solved;
     if (tracker.mpc().qp_result().fell_back) ++report.qp_fallbacks;
@@ -173,6 +176,9 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   if (report.qp_us.median > 0.0) report.step_over_qp = report.step_cpu_us.median / report.qp_us.median;
   report.soft_rows_mean = options.steps > 0 ? rows / options.steps : 0.0;
   report.soft_rows_in_qp_mean = options.steps > 0 ? rows_in_qp / options.steps : 0.0;
+  report.prediction_rows_computed_mean = options.steps > 0 ? rows_computed / options.steps : 0.0;
+  report.prediction_rows = (tracker.mpc().dims().state_dim + tracker.mpc().dims().output_dim) *
+                           options.prediction_horizon;
   if (report.ipopt_compared > 0) {
     report.ipopt_qp_us_median = mission::percentiles(ipopt_us).median;
     report.ours_on_compared_us_median = mission::percentiles(ours_compared).median;

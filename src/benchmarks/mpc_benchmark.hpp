@@ -54,6 +54,9 @@ struct MpcBenchmarkReport {
   double max_slack_m = 0.0;  ///< largest soft-constraint violation the plans accepted
   double soft_rows_mean = 0.0;        ///< soft rows added a step
   double soft_rows_in_qp_mean = 0.0;  ///< of them, the rows the QP carried (not redundant)
+  /// Rows of Γ and Φ the condensing computed a step, of prediction_rows (the others kept)
+  double prediction_rows_computed_mean = 0.0;
+  int prediction_rows = 0;
   int ipopt_compared = 0;
   double ipopt_qp_us_median = 0.0;  ///< Ipopt on the same QPs
   double ours_on_compared_us_median = 0.0;

@@ -86,6 +86,45 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
   return count;
 }
 
+// dst(i, j) = src(i, j) for i < rows, j < cols: src row-major (leading dimension src_ld), dst
+// column-major (dst_ld). In 4 × 4 tiles, each four rows loaded as vectors and stored as four
+// columns, instead of one strided load an entry.
+inline __attribute__((always_inline)) void transpose(const double* __restrict src,
+                                                     Eigen::Index src_ld, int rows, int cols,
+                                                     double* __restrict dst, Eigen::Index dst_ld) {
+  typedef long long Mask4 __attribute__((vector_size(32)));
+  const int full_rows = rows / 4 * 4, full_cols = cols / 4 * 4;
+  for (int i = 0; i < full_rows; i += 4) {
+    const double* s = src + i * src_ld;
+    for (int j = 0; j < full_cols; j += 4) {
+      Vec4 r0, r1, r2, r3;
+      std::memcpy(&r0, s + j, sizeof r0);
+      std::memcpy(&r1, s + src_ld + j, sizeof r1);
+      std::memcpy(&r2, s + 2 * src_ld + j, sizeof r2);
+      std::memcpy(&r3, s + 3 * src_ld + j, sizeof r3);
+      const Vec4 t0 = __builtin_shuffle(r0, r1, Mask4{0, 4, 2, 6});  // r0[0] r1[0] r0[2] r1[2]
+      const Vec4 t1 = __builtin_shuffle(r0, r1, Mask4{1, 5, 3, 7});
+      const Vec4 t2 = __builtin_shuffle(r2, r3, Mask4{0, 4, 2, 6});
+      const Vec4 t3 = __builtin_shuffle(r2, r3, Mask4{1, 5, 3, 7});
+      const Vec4 c0 = __builtin_shuffle(t0, t2, Mask4{0, 1, 4, 5});  // column j
+      const Vec4 c1 = __builtin_shuffle(t1, t3, Mask4{0, 1, 4, 5});
+      const Vec4 c2 = __builtin_shuffle(t0, t2, Mask4{2, 3, 6, 7});
+      const Vec4 c3 = __builtin_shuffle(t1, t3, Mask4{2, 3, 6, 7});
+      double* d = dst + j * dst_ld + i;
+      std::memcpy(d, &c0, sizeof c0);
+      std::memcpy(d + dst_ld, &c1, sizeof c1);
+      std::memcpy(d + 2 * dst_ld, &c2, sizeof c2);
+      std::memcpy(d + 3 * dst_ld, &c3, sizeof c3);
+    }
+    for (int j = full_cols; j < cols; ++j) {
+      for (int k = 0; k < 4; ++k) dst[j * dst_ld + i + k] = s[k * src_ld + j];
+    }
+  }
+  for (int j = 0; j < cols; ++j) {
+    for (int i = full_rows; i < rows; ++i) dst[j * dst_ld + i] = src[i * src_ld + j];
+  }
+}
+
 }  // namespace
 
 void IncrementalMpcData::set_time_invariant(const MatX& A_, const MatX& B_, const MatX& C_,
@@ -196,8 +235,15 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   b_row_begin_.assign(static_cast<std::size_t>(nc_) * ns_ + 1, 0);
   a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
-  Gamma_ = RowMatX::Zero(ns_, nc_ * nu_);
-  Gnext_ = RowMatX::Zero(ns_, nc_ * nu_);
+  Gamma_ = RowMatX::Zero((np_ + 1) * ns_, nc_ * nu_);
+  a_changed_rows_.assign(np_, ~std::uint64_t{0});
+  a_sources_.assign(static_cast<std::size_t>(np_) * ns_, 0);
+  b_changed_rows_.assign(nc_, ~std::uint64_t{0});
+  c_sources_.assign(ny_, 0);
+  phi_changed_.assign(static_cast<std::size_t>(np_) * ny_, 1);
+  range_stale_.assign(static_cast<std::size_t>(np_) * ny_, 1);
+  output_group_.assign(ny_, -1);
+  group_stale_.assign(ny_, 1);
   Yfree_ = VecX::Zero(np_ * ny_);
   qdiag_ = VecX::Zero(np_ * ny_);
   for (int j = 0; j < np_; ++j) {
@@ -322,26 +368,40 @@ void IncrementalMpc::collect_plant_nonzeros() {
     const int old_begin = a_row_begin_[j * ns_], old_end = a_row_begin_[(j + 1) * ns_];
     const double* A = d.A[j].data();  // column-major n_s×n_s
     // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
-    // time, and nonzero at every listed position, is the same set; only the values are read.
+    // time, and nonzero at every listed position, is the same set; only the values are read,
+    // noting the rows whose values changed (bit k: row k; a NaN counts as changed).
     if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
-      bool listed = true;
+      // Compared as bits: equal bits give equal sums (a NaN kept gives the same NaN rows).
+      // A listed entry that became ±0 has no bit set outside its sign.
+      std::uint64_t changed = 0, zero = 0;
+      Entry* __restrict entries = a_entries_.data();
       for (int e = old_begin; e < old_end; ++e) {
-        Entry& a = a_entries_[e];
-        a.value = A[a.col * ns_ + a.row];
-        listed = listed && a.value != 0.0;
+        Entry& a = entries[e];
+        const double v = A[a.col * ns_ + a.row];
+        const std::uint64_t bits = std::bit_cast<std::uint64_t>(v);
+        const std::uint64_t old = std::bit_cast<std::uint64_t>(a.value);
+        changed |= std::uint64_t{bits != old} << (a.row & 63);
+        zero |= std::uint64_t{(bits << 1) == 0};
+        a.value = v;
       }
-      if (listed) {
+      if (zero == 0) {
+        a_changed_rows_[j] = changed;
         n = old_end;
         continue;
       }
     }
     same = false;  // this step and every later one are listed anew
+    a_changed_rows_[j] = ~std::uint64_t{0};
     for (int k = 0; k < ns_; ++k) {
       a_row_begin_[j * ns_ + k] = n;
+      std::uint64_t sources = 0;
       for (int l = 0; l < ns_; ++l) {
         const double v = A[l * ns_ + k];
-        if (v != 0.0) a_entries_[n++] = Entry{k, l, v};
+        if (v == 0.0) continue;
+        a_entries_[n++] = Entry{k, l, v};
+        sources |= std::uint64_t{1} << (l & 63);
       }
+      a_sources_[j * ns_ + k] = sources;
     }
   }
   if (!same) {
@@ -349,13 +409,27 @@ void IncrementalMpc::collect_plant_nonzeros() {
     for (int e = 0; e < n; ++e) a_pattern_[a_entries_[e].row * ns_ + a_entries_[e].col] = 1;
   }
   a_row_begin_[static_cast<std::size_t>(np_) * ns_] = n;
-  c_count_ = 0;
+  // C and the B_j are listed anew; a row that lists other entries than last time changed.
+  const auto same_entry = [](const Entry& a, const Entry& b) {
+    return a.row == b.row && a.col == b.col && a.value == b.value;
+  };
+  int c_count = 0;
+  c_changed_ = false;
   for (int k = 0; k < ny_; ++k) {
-    c_row_begin_[k] = c_count_;
+    c_changed_ = c_changed_ || c_row_begin_[k] != c_count;
+    c_row_begin_[k] = c_count;
+    std::uint64_t sources = 0;
     for (int l = 0; l < ns_; ++l) {
-      if (d.C(k, l) != 0.0) c_entries_[c_count_++] = Entry{k, l, d.C(k, l)};
+      if (d.C(k, l) == 0.0) continue;
+      const Entry entry{k, l, d.C(k, l)};
+      c_changed_ = c_changed_ || c_count >= c_count_ || !same_entry(c_entries_[c_count], entry);
+      c_entries_[c_count++] = entry;
+      sources |= std::uint64_t{1} << (l & 63);
     }
+    c_sources_[k] = sources;
   }
+  c_changed_ = c_changed_ || c_count != c_count_;
+  c_count_ = c_count;
   c_row_begin_[ny_] = c_count_;
   // The reach of each state (bit c: some move of input c changes it at some step): the
   // inputs of its B rows, closed over the union pattern of the A_j. Outside its reach a row of
@@ -366,14 +440,21 @@ void IncrementalMpc::collect_plant_nonzeros() {
   int nb = 0;
   for (int j = 0; j < nc_; ++j) {
     const MatX& B = d.B[j];
+    b_changed_rows_[j] = 0;
     for (int k = 0; k < ns_; ++k) {
-      b_row_begin_[j * ns_ + k] = nb;
+      const int row = j * ns_ + k;
+      const int old_begin = b_row_begin_[row], old_end = b_row_begin_[row + 1];
+      bool changed = old_begin != nb;
+      b_row_begin_[row] = nb;
       for (int c = 0; c < nu_; ++c) {
         const double v = B(k, c);
         if (v == 0.0) continue;
-        b_entries_[nb++] = Entry{k, c, v};
+        const Entry entry{k, c, v};
+        changed = changed || nb >= old_end || !same_entry(b_entries_[nb], entry);
+        b_entries_[nb++] = entry;
         state_reach_[k] |= std::uint64_t{1} << c;
       }
+      if (changed || nb != old_end) b_changed_rows_[j] |= std::uint64_t{1} << (k & 63);
     }
   }
   b_row_begin_[nc_ * ns_] = nb;
@@ -404,12 +485,19 @@ void IncrementalMpc::group_rows_by_span() {
   // Output components with the same span share build_cost's blocked rank updates.
   groups_ = 0;
   int n = 0;
+  std::fill(output_group_.begin(), output_group_.end(), -1);
   for (int k = 0; k < ny_; ++k) {
     const int lo = output_span_lo_[k], hi = output_span_hi_[k];
     if (lo == hi) continue;  // an output no input moves: its rows of Φ are zero
     bool seen = false;
-    for (int g = 0; g < groups_; ++g) seen = seen || (group_lo_[g] == lo && group_hi_[g] == hi);
+    for (int g = 0; g < groups_; ++g) {
+      if (group_lo_[g] == lo && group_hi_[g] == hi) {
+        seen = true;
+        output_group_[k] = g;
+      }
+    }
     if (seen) continue;
+    output_group_[k] = groups_;
     group_lo_[groups_] = lo;
     group_hi_[groups_] = hi;
     group_begin_[groups_] = n;
@@ -421,6 +509,16 @@ void IncrementalMpc::group_rows_by_span() {
     ++groups_;
   }
   group_begin_[groups_] = n;
+  // Disjoint spans sum into separate blocks of H, so a group whose rows did not change keeps
+  // its block; overlapping spans share entries, and every group is summed again.
+  groups_disjoint_ = true;
+  for (int g = 0; g < groups_; ++g) {
+    for (int h = 0; h < g; ++h) {
+      if (group_lo_[g] < group_hi_[h] && group_lo_[h] < group_hi_[g]) groups_disjoint_ = false;
+    }
+  }
+  std::fill(group_stale_.begin(), group_stale_.end(), 1);
+  h_valid_ = false;
 }
 
 void IncrementalMpc::build_prediction() {
@@ -442,20 +540,34 @@ void IncrementalMpc::forward_pass() {
   // yet are sums of exact zeros (one loop without per-input branches costs less than
   // skipping them). The zeros outside a row's span hold because they are never written, and
   // Γ and Φ are cleared when a reach changes.
+  //
+  // Rows that do not change between steps are not computed again. A row of Γ_j keeps last
+  // step's values when its row of A_j (and of B_j, for a move) is unchanged and so are the
+  // rows of Γ_{j−1} it sums; a row of Φ_j likewise with C, Φ_{j−1} and the rows of Γ_j it
+  // reads. The same sums of the same numbers give the same values, so a kept row is exactly
+  // the one the pass would compute. For the UAV only the x and y rows depend on the nominal
+  // heading and speed: the speed, turn-rate, climb-rate, heading and altitude rows of Γ and the
+  // altitude rows of Φ are kept from the first step on.
+  // The rows are tracked as bits of 64-bit masks; a plant of more than 64 states computes
+  // every row each step.
+  bool keep = rows_valid_ && !c_changed_ && ns_ <= 64;
   if (output_reach_ != phi_reach_) {
     Phi_.setZero();
     phi_reach_ = output_reach_;
     group_rows_by_span();
+    keep = false;
   }
   if (state_reach_ != gamma_reach_) {
-    Gnext_.setZero();
+    Gamma_.setZero();  // the first n_s rows, Γ_{−1}, stay zero
     gamma_reach_ = state_reach_;
+    keep = false;
   }
-  Gamma_.setZero();  // Γ_{−1}
+  const std::uint64_t all = ~std::uint64_t{0};
+  std::uint64_t previous_changed = 0;  // rows of Γ_{j−1} computed anew (Γ_{−1} = 0 never is)
+  int rows_computed = 0;
+  const std::uint64_t state_rows = ns_ >= 64 ? all : (std::uint64_t{1} << ns_) - 1;
   ds_ = d.delta_state;
   y_ = d.output;
-  RowMatX* G = &Gamma_;
-  RowMatX* Gn = &Gnext_;
   const Eigen::Index ld = Gamma_.outerStride();
   for (int j = 0; j < np_; ++j) {
     w_ = d.state_offset.col(j);
@@ -465,25 +577,36 @@ void IncrementalMpc::forward_pass() {
       w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
     }
     dsn_ = w_;
+    // Γ_{j−1} is the block of rows j·n_s, Γ_j the next one.
+    const double* previous = Gamma_.data() + static_cast<Eigen::Index>(j) * ns_ * ld;
+    // The rows of Γ_j computed anew: every row without a kept pass; else the rows of A_j
+    // (or B_j) that changed, and the rows that sum a changed row of Γ_{j−1}.
+    std::uint64_t changed = keep ? a_changed_rows_[j] : all;
+    if (j < nc_) changed |= b_changed_rows_[j];
     // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
     // span lies inside it (reaches are closed over A), and its entries outside its own span
     // are exact zeros.
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
+    const std::uint64_t* sources = &a_sources_[static_cast<std::size_t>(j) * ns_];
     for (int k = 0; k < ns_; ++k) {
       const int first = row_begin[k], end = row_begin[k + 1];
       double v = dsn_[k];
       for (int e = first; e < end; ++e) v += a_entries_[e].value * ds_[a_entries_[e].col];
       dsn_[k] = v;
+      if ((sources[k] & previous_changed) != 0) changed |= std::uint64_t{1} << (k & 63);
+      if ((changed >> (k & 63) & 1) == 0) continue;
       const int lo = state_span_lo_[k];
-      combine_row(Gn->row(k).data() + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first],
-                  end - first, G->data() + lo, ld);
-    }
-    if (j < nc_) {  // move j starts: its columns of Γ_{j−1} are zero, so B_j is all of them
-      for (int e = b_row_begin_[j * ns_]; e < b_row_begin_[(j + 1) * ns_]; ++e) {
-        (*Gn)(b_entries_[e].row, b_entries_[e].col * nc_ + j) = b_entries_[e].value;
+      double* row = Gamma_.row((j + 1) * ns_ + k).data();
+      combine_row(row + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first], end - first,
+                  previous + lo, ld);
+      if (j < nc_) {  // move j starts: its columns of Γ_{j−1} are zero, so B_j is all of them
+        for (int e = b_row_begin_[j * ns_ + k]; e < b_row_begin_[j * ns_ + k + 1]; ++e) {
+          row[b_entries_[e].col * nc_ + j] = b_entries_[e].value;
+        }
       }
     }
-    std::swap(G, Gn);
+    previous_changed = changed;
+    rows_computed += ns_ <= 64 ? std::popcount(changed & state_rows) : ns_;
     std::swap(ds_, dsn_);
     // y_j = y_{j−1} + C ds_j row by row in scalars: ds_ was just written entry by entry, and a
     // vector load of it would wait for those stores to retire instead of forwarding them.
@@ -496,14 +619,25 @@ void IncrementalMpc::forward_pass() {
       Yfree_[j * ny_ + k] = v;
     }
     // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
+    const double* gamma = previous + ns_ * ld;
     for (int k = 0; k < ny_; ++k) {
-      const int first = c_row_begin_[k];
+      const int first = c_row_begin_[k], end = c_row_begin_[k + 1];
+      const int r = j * ny_ + k;
+      const bool row_changed = !keep || (j > 0 && phi_changed_[r - ny_] != 0) ||
+                               (c_sources_[k] & previous_changed) != 0;
+      phi_changed_[r] = row_changed ? 1 : 0;
+      if (!row_changed) continue;
+      ++rows_computed;
+      range_stale_[r] = 1;
+      if (output_group_[k] >= 0) group_stale_[output_group_[k]] = 1;
       const int lo = output_span_lo_[k];
-      const double* previous = j > 0 ? Phi_.row((j - 1) * ny_ + k).data() + lo : nullptr;
-      combine_row(Phi_.row(j * ny_ + k).data() + lo, output_span_hi_[k] - lo, previous,
-                  &c_entries_[first], c_row_begin_[k + 1] - first, G->data() + lo, ld);
+      const double* above = j > 0 ? Phi_.row(r - ny_).data() + lo : nullptr;
+      combine_row(Phi_.row(r).data() + lo, output_span_hi_[k] - lo, above, &c_entries_[first],
+                  end - first, gamma + lo, ld);
     }
   }
+  rows_valid_ = true;
+  result_.prediction_rows_computed = rows_computed;
 }
 
 void IncrementalMpc::build_cost() {
@@ -517,7 +651,12 @@ void IncrementalMpc::build_cost() {
   // sums kept in vector registers over all the rows of the span and stored once; the columns
   // past the last multiple of four are summed entry by entry. Sums run in Φ's column order,
   // which is the QP's.
-  Hp_.setZero();
+  //
+  // A group none of whose rows of Φ changed since its block was summed keeps its block of H
+  // (the UAV's altitude rows: the climb block); f depends on the reference and the free
+  // response and is summed every step.
+  const bool by_block = h_valid_ && groups_disjoint_;
+  if (!by_block) Hp_.setZero();
   fp_.setZero();
   const Eigen::Index ld = Phi_.outerStride();
   const double* phi = Phi_.data();
@@ -533,6 +672,11 @@ void IncrementalMpc::build_cost() {
       const double* p = phi + r * ld + lo;
       const double e = -2.0 * qdiag_[r] * (d.reference(r % ny_, r / ny_) - Yfree_[r]);
       for (int a = 0; a < size; ++a) f[a] += e * p[a];
+    }
+    if (by_block && group_stale_[g] == 0) continue;
+    group_stale_[g] = 0;
+    if (by_block) {
+      for (int a = lo; a < lo + size; ++a) std::fill_n(Hp_.row(a).data() + lo, a - lo + 1, 0.0);
     }
     for (int a0 = 0; a0 < full; a0 += 4) {
       int b0 = 0;
@@ -594,20 +738,26 @@ void IncrementalMpc::build_cost() {
         for (int b = 0; b <= a; ++b) h[b] += c * p[b];
       }
     }
+    if (by_block) write_hessian_block(lo, lo + size);
   }
-  // The QP orders ΔU as Φ does (input, then move): H is Hp_ doubled and made symmetric, f is
-  // fp_. Column b of H (column-major) is row b of the symmetric Hp_ (row-major): its lower part
-  // from row b's entries a ≥ b is column b of the triangle read down, its upper part row b.
-  auto Huu = qp_.H.topLeftCorner(nU, nU);
-  for (int b = 0; b < nU; ++b) {
-    qp_.f[b] = fp_[b];
+  // The QP orders ΔU as Φ does (input, then move): H is Hp_ doubled and made symmetric plus
+  // 2R̄, f is fp_ (by block above, H's other entries keep their values).
+  qp_.f.head(nU) = fp_;
+  if (!by_block) write_hessian_block(0, nU);
+  h_valid_ = true;
+}
+
+void IncrementalMpc::write_hessian_block(int lo, int hi) {
+  // Column b of H (column-major) is row b of the symmetric Hp_ (row-major): its part above the
+  // diagonal is row b's entries a < b, its part from the diagonal down column b of the
+  // triangle read down.
+  auto Huu = qp_.H.topLeftCorner(nc_ * nu_, nc_ * nu_);
+  for (int b = lo; b < hi; ++b) {
     double* out = &Huu(0, b);
     const double* hb = Hp_.row(b).data();
-    for (int a = 0; a < b; ++a) out[a] = 2.0 * hb[a];
-    for (int a = b; a < nU; ++a) out[a] = 2.0 * Hp_(a, b);
-  }
-  for (int c = 0; c < nu_; ++c) {
-    for (int i = 0; i < nc_; ++i) Huu(c * nc_ + i, c * nc_ + i) += 2.0 * options_.move_weight[c];
+    for (int a = lo; a < b; ++a) out[a] = 2.0 * hb[a];
+    for (int a = b; a < hi; ++a) out[a] = 2.0 * Hp_(a, b);
+    out[b] += 2.0 * options_.move_weight[b / nc_];
   }
 }
 
@@ -638,9 +788,16 @@ void IncrementalMpc::assemble_qp() {
   const IncrementalMpcData& d = data_;
   // Move bounds Δu_min ≤ Δu ≤ Δu_max (box); slack bounds σ ≥ 0 stay as built.
   // Variables and input rows in the QP's order (input, then move: index c·Nc + i).
+  // The inputs whose move box changed (bit c: input c), for the ranges of assemble_soft_rows.
+  box_changed_ = 0;
   for (int c = 0; c < nu_; ++c) {
     for (int i = 0; i < nc_; ++i) {
       const int q = c * nc_ + i;
+      const bool same = std::bit_cast<std::uint64_t>(qp_.lb[q]) ==
+                            std::bit_cast<std::uint64_t>(d.move_min(c, i)) &&
+                        std::bit_cast<std::uint64_t>(qp_.ub[q]) ==
+                            std::bit_cast<std::uint64_t>(d.move_max(c, i));
+      if (!same) box_changed_ |= std::uint64_t{1} << c;
       qp_.lb[q] = d.move_min(c, i);
       qp_.ub[q] = d.move_max(c, i);
       // Input limits: u_min − u_{k−1} ≤ Σ Δu ≤ u_max − u_{k−1}.
@@ -674,8 +831,12 @@ void IncrementalMpc::assemble_soft_rows() {
   // activation distance but farther than the moves can carry the UAV in its horizon (70–80 %
   // of the rows in `bench mpc` and the default mission) — and each one left out is a row the
   // QP neither stores, nor checks, nor carries in its working set.
+  //
+  // A row's range is computed again only if the row or the box over its inputs changed.
   const Eigen::Index ld = Phi_.outerStride();
   for (int r = 0; r < np_ * ny_ && options_.drop_redundant_soft_rows; ++r) {
+    if (range_stale_[r] == 0 && (box_changed_ & output_reach_[r % ny_]) == 0) continue;
+    range_stale_[r] = 0;
     const int lo = output_span_lo_[r % ny_], size = output_span_hi_[r % ny_] - lo;
     const double* p = Phi_.data() + r * ld + lo;
     const double* bl = qp_.lb.data() + lo;  // the move box, in Φ's column order too
@@ -779,13 +940,9 @@ void IncrementalMpc::assemble_soft_rows() {
   // Padding rows that held a soft row last time (previous_count_ of them lead the QP's soft
   // rows) are cleared; the others stay clear.
   const int stale = std::max(previous_count_ - kept, 0);
-  const Eigen::Index block_ld = soft_block_.outerStride();
-  for (int q = 0; q < nU; ++q) {
-    double* __restrict column = qp_.G.col(q).data() + first;
-    const double* __restrict source = soft_block_.data() + q;
-    for (int s = 0; s < kept; ++s) column[s] = source[s * block_ld];
-    std::fill_n(column + kept, stale, 0.0);
-  }
+  transpose(soft_block_.data(), soft_block_.outerStride(), kept, nU, qp_.G.data() + first,
+            qp_.G.outerStride());
+  for (int q = 0; q < nU; ++q) std::fill_n(qp_.G.col(q).data() + first + kept, stale, 0.0);
   for (int g = 0; g < ng_; ++g) {
     double* column = qp_.G.col(nU + g).data() + first;
     for (int s = 0; s < kept; ++s) column[s] = d.soft_group[kept_rows_[s]] == g ? 1.0 : 0.0;
@@ -928,6 +1085,7 @@ const IncrementalMpcResult& IncrementalMpc::solve() {
     result_.condensing_time_us = 0.0;
     result_.soft_rows_time_us = 0.0;
     result_.soft_rows_in_qp = 0;
+    result_.prediction_rows_computed = 0;
     return result_;
   }
   auto start = Clock::now();

@@ -201,6 +201,9 @@ struct IncrementalMpcResult {
   /// The soft rows the QP carried: those added, less the ones no move within the move limits
   /// can violate (see assemble_soft_rows), which cannot change the solution.
   int soft_rows_in_qp = 0;
+  /// The rows of Γ and Φ the condensing computed, of (n_s + n_y)·Np: the others did not
+  /// change since the last step and kept their values (see build_prediction).
+  int prediction_rows_computed = 0;
   double qp_time_us = 0.0;          ///< the QP solve (QpResult::solve_time_us)
   double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock)
   double soft_rows_time_us = 0.0;   ///< the soft rows written into the QP (wall clock)
@@ -253,6 +256,7 @@ class IncrementalMpc {
   RIDGELINE_SIMD_CLONES void collect_plant_nonzeros();
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
+  void write_hessian_block(int lo, int hi);
   RIDGELINE_SIMD_CLONES void assemble_soft_rows();
   void extract_solution(const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
@@ -288,10 +292,30 @@ class IncrementalMpc {
   std::vector<int> b_row_begin_;  // Nc·n_s + 1
   int c_count_ = 0;
   std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
+  // What changed since the last build_prediction, as masks of rows (bit k: row k; used when
+  // n_s ≤ 64): the rows of each A_j whose values changed, or all if it was listed anew (Np),
+  // and the rows of the B_j of the moves (Nc); C as a whole. The sources of each row of A_j
+  // (Np·n_s) and of C (n_y): bit l where the entry in column l is nonzero. Which rows of Φ
+  // (Np·n_y) the last pass computed anew. Rows that did not change keep their values, which is
+  // valid once a pass has run with the present reaches (rows_valid_).
+  std::vector<std::uint64_t> a_changed_rows_, a_sources_, b_changed_rows_, c_sources_;
+  std::vector<int> phi_changed_;
+  // Rows of Φ changed since their range over the move box was computed (Np·n_y), and groups
+  // whose rows changed since their block of H was summed (n_y); the group of each output
+  // (−1: none).
+  std::vector<int> range_stale_, group_stale_, output_group_;
+  bool groups_disjoint_ = true;
+  std::uint64_t box_changed_ = ~std::uint64_t{0};  // inputs whose move box changed (assemble_qp)
+  bool h_valid_ = false;  // H was written in full once with the present groups
+  bool c_changed_ = true;
+  bool rows_valid_ = false;
 
   // Φ and Γ order their columns by input, then move (see build_prediction).
   RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
-  RowMatX Gamma_, Gnext_;  // n_s×(Nc·n_u): Γ_{j−1} and Γ_j; valid inside each row's reach
+  // ((Np + 1)·n_s)×(Nc·n_u): Γ_{−1} = 0, Γ_0, …, Γ_{Np−1} (block j + 1 holds Γ_j); valid
+  // inside each row's span. All are kept, so that a row that does not change is not computed
+  // again the next step (see forward_pass).
+  RowMatX Gamma_;
   VecX Yfree_;             // Np·n_y
   VecX qdiag_;             // Np·n_y: diagonal of Q̄
   VecX ds_, dsn_, y_, w_;  // n_s, n_s, n_y, n_s

@@ -326,6 +326,143 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOu
   }
 }
 
+// The condensing keeps the rows of Γ and Φ that did not change since the last step. A
+// controller that has run for many steps must build exactly (bit for bit) the QP a new one
+// builds from the same data, whatever changed in between: the heading-dependent entries of
+// A_j (the tracker's every step), a constant row of one A_j, a B_j, C, a new nonzero in A_j
+// and its removal, one input's move box, a ±0 or NaN entry, or nothing at all.
+TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
+  std::mt19937 rng(8);
+  const vehicle::VehicleParams p;
+  const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 24, nc = 6;
+  IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+  o.output_weight = Eigen::Vector3d(1.0, 1.0, 2.0);
+  o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
+  o.move_min = -Eigen::Vector3d(0.2, 0.03, 0.1);
+  o.move_max = Eigen::Vector3d(0.2, 0.03, 0.1);
+  const IncrementalMpcDims dims{ns, nu, ny, 3, 2 * np, 2};
+  IncrementalMpc kept(dims, o);
+  IncrementalMpcData& d = kept.data();
+  std::uniform_real_distribution<double> heading(-kPi, kPi), unit(0.0, 1.0);
+  std::uniform_int_distribution<int> any_step(0, np - 1), move_step(0, nc - 1);
+  const auto uav_plant = [&](double psi0) {
+    for (int j = 0; j < np; ++j) {
+      vehicle::State s = vehicle::State::Zero();
+      s[vehicle::kPsi] = psi0 + 0.03 * j;
+      s[vehicle::kV] = 12.0 + 0.1 * j;
+      const vehicle::Jacobians J = vehicle::discrete_jacobians(s, p, 0.1);
+      d.A[j] = J.A;
+      d.B[j] = J.B;
+      d.E[j] = J.E;
+    }
+  };
+  uav_plant(0.3);
+  d.C = MatX::Zero(ny, ns);
+  d.C.leftCols(3).setIdentity();
+  constexpr int kChanges = 11;
+  const int all_rows = (ns + ny) * np;
+  int fewer = 0, none = 0;
+  for (int step = 0; step < 4 * kChanges; ++step) {
+    const int change = step % kChanges;
+    switch (change) {
+      case 0:  // the tracker's step: a new nominal heading and speed
+        uav_plant(heading(rng));
+        break;
+      case 1:  // a constant row's value at one step
+        d.A[any_step(rng)](vehicle::kV, vehicle::kV) *= 1.0 + 0.1 * unit(rng);
+        break;
+      case 2:  // an input's effect at one move
+        d.B[move_step(rng)](vehicle::kOmega, 1) *= 1.0 + 0.1 * unit(rng);
+        break;
+      case 3:  // C
+        d.C(2, 2) = 1.0 + 0.1 * unit(rng);
+        break;
+      case 4:  // a new nonzero: the speed now climbs at one step
+        d.A[any_step(rng)](vehicle::kZ, vehicle::kV) = 0.01;
+        break;
+      case 5:  // ... and no longer
+        for (int j = 0; j < np; ++j) d.A[j](vehicle::kZ, vehicle::kV) = 0.0;
+        break;
+      case 6: {  // one input's move box (the climb's, which the altitude rows below test)
+        const double climb = 0.02 + 0.3 * unit(rng);
+        d.move_min.row(2).setConstant(-climb);
+        d.move_max.row(2).setConstant(climb);
+        break;
+      }
+      case 7:  // a heading-dependent entry at one step only: x changes there, y does not
+        d.A[any_step(rng)](vehicle::kX, vehicle::kPsi) *= 1.01;
+        break;
+      case 8:  // NaN in a constant row: the QP must be rejected ...
+        d.A[any_step(rng)](vehicle::kW, vehicle::kW) = std::nan("");
+        break;
+      case 9:  // ... and the next step, with the row restored, is built right
+        for (int j = 0; j < np; ++j) {
+          if (std::isnan(d.A[j](vehicle::kW, vehicle::kW))) d.A[j](vehicle::kW, vehicle::kW) = 0.9;
+        }
+        break;
+      default:  // nothing changed
+        break;
+    }
+    d.delta_state = random_matrix(rng, ns, 1, 0.05);
+    d.output = random_matrix(rng, ny, 1, 50.0);
+    d.state = random_matrix(rng, ns, 1, 50.0);
+    d.reference = random_matrix(rng, ny, np, 3.0);
+    for (int j = 0; j < np; ++j) d.reference.col(j) += d.output;
+    d.clear_soft_rows();
+    for (int j = 0; j < np; j += 3) {
+      Vec3 a = random_matrix(rng, 3, 1, 1.0);
+      a.normalize();
+      d.add_soft_row(j, a, a.dot(d.output) + 40.0 * (unit(rng) - 0.9), 0, 0);
+    }
+    // Altitude floors from 3 m below to 1 m above the free response, whether the climb's
+    // moves can violate them depending on its box.
+    // (A second build before the solve's own finds nothing changed: the cost and the ranges
+    // must still follow the rows the first one computed.)
+    kept.build_prediction();
+    const int computed = kept.last_result().prediction_rows_computed;
+    for (int j = 1; j < np; j += 2) {
+      const double free_z = kept.free_response()[j * ny + 2];
+      d.add_soft_row(j, Vec3::UnitZ(), free_z - 3.0 + 4.0 * unit(rng), 1, 0);
+    }
+    const IncrementalMpcResult& r = kept.solve();
+    IncrementalMpc fresh(dims, o);
+    fresh.data() = d;
+    const IncrementalMpcResult& f = fresh.solve();
+    SCOPED_TRACE(step);
+    ASSERT_EQ(r.qp_status == qp::QpStatus::kInvalidInput,
+              f.qp_status == qp::QpStatus::kInvalidInput);
+    EXPECT_EQ(f.prediction_rows_computed, all_rows);
+    if (change == 8) {
+      EXPECT_EQ(r.qp_status, qp::QpStatus::kInvalidInput);  // the NaN reached the QP
+      continue;
+    }
+    EXPECT_EQ(r.prediction_rows_computed, 0);  // the solve's build after the one above
+    if (change == 10) {
+      EXPECT_EQ(computed, 0);
+    }
+    fewer += computed < all_rows ? 1 : 0;
+    none += computed == 0 ? 1 : 0;
+    // Bit for bit: Φ, the free response, H, f and the QP's rows and their bounds.
+    EXPECT_EQ(kept.Phi(), fresh.Phi());
+    EXPECT_EQ(kept.free_response(), fresh.free_response());
+    const qp::QpProblem& a = kept.qp_problem();
+    const qp::QpProblem& b = fresh.qp_problem();
+    EXPECT_EQ(a.H, b.H);
+    EXPECT_EQ(a.f, b.f);
+    EXPECT_EQ(a.lb, b.lb);
+    EXPECT_EQ(a.ub, b.ub);
+    ASSERT_EQ(r.soft_rows_in_qp, f.soft_rows_in_qp);
+    const int rows = nc * nu + r.soft_rows_in_qp;
+    EXPECT_EQ(a.G.topRows(rows), b.G.topRows(rows));
+    EXPECT_EQ(a.lg.head(rows), b.lg.head(rows));
+    EXPECT_EQ(a.ug.head(rows), b.ug.head(rows));
+  }
+  // Rows were kept at the steps of changes 0, 1, 2, 6, 7, 9 and 10 (not only where nothing
+  // changed), and none computed at those of 6 and 10.
+  EXPECT_GE(fewer, 4 * 7 - 1);
+  EXPECT_GE(none, 4 * 2);
+}
+
 // Soft rows that no move within the move limits can violate are left out of the QP; the
 // solution must be the one of the QP with every row. The UAV's Jacobians along random
 // nominals, rate-limited moves, and soft rows at random distances from the free response
