@@ -227,28 +227,26 @@ void UavTracker::build_nominal(double t_s, const vehicle::State& state,
     return true;
   };
 
+  // Sample j (time t + j·dt) gives the nominal state j (j < Np) and the nominal position of
+  // the constraints j − 1, both from one look-up of the previous prediction.
   nominal_states_.col(0) = state;
   double heading = state[kPsi];
-  for (int j = 1; j < np_; ++j) {
+  for (int j = 1; j <= np_; ++j) {
     const double tau = t_s + j * dt;
+    vehicle::State previous = vehicle::State::Zero();  // written when have_previous
+    const bool have_previous = previous_state_at(tau, previous);
+    const ReferencePoint& r = reference_points_[j];
+    nominal_positions_.col(j - 1) = have_previous ? Vec3(previous.head<3>()) : r.position_m;
+    if (j == np_) break;
     vehicle::State s;
-    if (options_.linearization != LinearizationPoint::kPreviousPrediction ||
-        !previous_state_at(tau, s)) {
-      const ReferencePoint& r = reference_points_[j];
+    if (options_.linearization == LinearizationPoint::kPreviousPrediction && have_previous) {
+      s = previous;
+    } else {
       s << r.position_m, r.heading_rad, r.speed_m_s, r.turn_rate_rad_s, r.climb_rate_m_s;
     }
     heading += wrap_angle(s[kPsi] - heading);  // unwrap relative to the state (see header)
     s[kPsi] = heading;
     nominal_states_.col(j) = s;
-  }
-  for (int j = 0; j < np_; ++j) {
-    const double tau = t_s + (j + 1) * dt;
-    vehicle::State s;
-    if (previous_state_at(tau, s)) {
-      nominal_positions_.col(j) = s.head<3>();
-    } else {
-      nominal_positions_.col(j) = reference_points_[j + 1].position_m;
-    }
   }
 }
 
