@@ -109,7 +109,7 @@ inline __attribute__((always_inline)) void combine_row(double* __restrict dst, i
   }
 }
 
-// The number of nonzero entries of x[0..n) (an integer sum, which vectorizes). Inlined into
+// The number of nonzero entries of x[0..n), four lanes at a time. Inlined into
 // collect_plant_nonzeros's clones: a call through the clones' dispatcher for 49 entries cost
 // about as much as the count.
 inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n) {
@@ -133,7 +133,6 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
 inline __attribute__((always_inline)) void transpose(const double* __restrict src,
                                                      Eigen::Index src_ld, int rows, int cols,
                                                      double* __restrict dst, Eigen::Index dst_ld) {
-  typedef long long Mask4 __attribute__((vector_size(32)));
   const int full_rows = rows / 4 * 4, full_cols = cols / 4 * 4;
   for (int i = 0; i < full_rows; i += 4) {
     const double* s = src + i * src_ld;
@@ -143,14 +142,14 @@ inline __attribute__((always_inline)) void transpose(const double* __restrict sr
       std::memcpy(&r1, s + src_ld + j, sizeof r1);
       std::memcpy(&r2, s + 2 * src_ld + j, sizeof r2);
       std::memcpy(&r3, s + 3 * src_ld + j, sizeof r3);
-      const Vec4 t0 = __builtin_shuffle(r0, r1, Mask4{0, 4, 2, 6});  // r0[0] r1[0] r0[2] r1[2]
-      const Vec4 t1 = __builtin_shuffle(r0, r1, Mask4{1, 5, 3, 7});
-      const Vec4 t2 = __builtin_shuffle(r2, r3, Mask4{0, 4, 2, 6});
-      const Vec4 t3 = __builtin_shuffle(r2, r3, Mask4{1, 5, 3, 7});
-      const Vec4 c0 = __builtin_shuffle(t0, t2, Mask4{0, 1, 4, 5});  // column j
-      const Vec4 c1 = __builtin_shuffle(t1, t3, Mask4{0, 1, 4, 5});
-      const Vec4 c2 = __builtin_shuffle(t0, t2, Mask4{2, 3, 6, 7});
-      const Vec4 c3 = __builtin_shuffle(t1, t3, Mask4{2, 3, 6, 7});
+      const Vec4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);  // r0[0] r1[0] r0[2] r1[2]
+      const Vec4 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+      const Vec4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
+      const Vec4 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+      const Vec4 c0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);  // column j
+      const Vec4 c1 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+      const Vec4 c2 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+      const Vec4 c3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
       double* d = dst + j * dst_ld + i;
       std::memcpy(d, &c0, sizeof c0);
       std::memcpy(d + dst_ld, &c1, sizeof c1);
@@ -410,7 +409,7 @@ void IncrementalMpc::collect_plant_nonzeros() {
     const double* A = d.A[j].data();  // column-major n_s×n_s
     // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
     // time, and nonzero at every listed position, is the same set; only the values are read,
-    // noting the rows whose values changed (bit k: row k; a NaN counts as changed).
+    // noting the rows whose values changed (bit k: row k).
     if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
       // Compared as bits: equal bits give equal sums (a NaN kept gives the same NaN rows).
       // A listed entry that became ±0 has no bit set outside its sign.
@@ -591,17 +590,19 @@ void IncrementalMpc::forward_pass() {
   // altitude rows of Φ are kept from the first step on.
   // The rows are tracked as bits of 64-bit masks; a plant of more than 64 states computes
   // every row each step.
-  bool keep = rows_valid_ && !c_changed_ && ns_ <= 64;
+  bool keep = rows_valid_ && ns_ <= 64;  // Γ's rows
+  bool keep_phi = keep && !c_changed_;    // Φ's rows also read C
   if (output_reach_ != phi_reach_) {
     Phi_.setZero();
     phi_reach_ = output_reach_;
     group_rows_by_span();
-    keep = false;
+    keep_phi = false;
   }
   if (state_reach_ != gamma_reach_) {
     Gamma_.setZero();  // the first n_s rows, Γ_{−1}, stay zero
     gamma_reach_ = state_reach_;
     keep = false;
+    keep_phi = false;
   }
   const std::uint64_t all = ~std::uint64_t{0};
   std::uint64_t previous_changed = 0;  // rows of Γ_{j−1} computed anew (Γ_{−1} = 0 never is)
@@ -664,7 +665,7 @@ void IncrementalMpc::forward_pass() {
     for (int k = 0; k < ny_; ++k) {
       const int first = c_row_begin_[k], end = c_row_begin_[k + 1];
       const int r = j * ny_ + k;
-      const bool row_changed = !keep || (j > 0 && phi_changed_[r - ny_] != 0) ||
+      const bool row_changed = !keep_phi || (j > 0 && phi_changed_[r - ny_] != 0) ||
                                (c_sources_[k] & previous_changed) != 0;
       phi_changed_[r] = row_changed ? 1 : 0;
       if (!row_changed) continue;
@@ -716,7 +717,8 @@ void IncrementalMpc::build_cost() {
     if (by_block && group_stale_[g] == 0) continue;
     group_stale_[g] = 0;
     if (by_block) {
-      for (int a = lo; a < lo + size; ++a) std::fill_n(Hp_.row(a).data() + lo, a - lo + 1, 0.0);
+      // The whole block: the diagonal tiles also sum entries above the diagonal (unread).
+      for (int a = lo; a < lo + size; ++a) std::fill_n(Hp_.row(a).data() + lo, size, 0.0);
     }
     for (int a0 = 0; a0 < full; a0 += 4) {
       int b0 = 0;

@@ -201,8 +201,9 @@ struct IncrementalMpcResult {
   /// The soft rows the QP carried: those added, less the ones no move within the move limits
   /// can violate (see assemble_soft_rows), which cannot change the solution.
   int soft_rows_in_qp = 0;
-  /// The rows of Γ and Φ the condensing computed, of (n_s + n_y)·Np: the others did not
-  /// change since the last step and kept their values (see build_prediction).
+  /// The rows of Γ and Φ the last build_prediction() (solve()'s own, or a caller's) computed,
+  /// of (n_s + n_y)·Np: the others did not change since the build before and kept their
+  /// values (see build_prediction).
   int prediction_rows_computed = 0;
   double qp_time_us = 0.0;          ///< the QP solve (QpResult::solve_time_us)
   double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock)
