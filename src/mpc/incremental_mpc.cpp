@@ -56,13 +56,19 @@ inline __attribute__((always_inline)) void axpy4(double* __restrict dst, int n, 
 // terms' order; base null means zero. The common counts keep the partial sums in registers, so
 // each entry of dst is stored once.
 // Inlined into its callers, the forward pass's clones, so that it is compiled for AVX2 too.
+// A source row whose bit is set in alt_rows is read at `alt` instead (the same leading
+// dimension): the forward pass keeps the rows that change at every step in two alternating
+// blocks of Γ, the others at every step's own block.
 template <typename Term>
 inline __attribute__((always_inline)) void combine_row(double* __restrict dst, int n,
                                                        const double* __restrict base,
                                                        const Term* terms, int count,
-                                                       const double* __restrict src,
-                                                       Eigen::Index ld) {
-  const auto row = [&](int t) { return src + terms[t].col * ld; };
+                                                       const double* src, const double* alt,
+                                                       std::uint64_t alt_rows, Eigen::Index ld) {
+  const auto row = [&](int t) {
+    const int col = terms[t].col;
+    return ((alt_rows >> (col & 63)) & 1 ? alt : src) + col * ld;
+  };
   if (base == nullptr && count == 1) {
     const double a0 = terms[0].value;
     const double* __restrict s0 = row(0);
@@ -275,7 +281,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   b_row_begin_.assign(static_cast<std::size_t>(nc_) * ns_ + 1, 0);
   a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
-  Gamma_ = RowMatX::Zero((np_ + 1) * ns_, nc_ * nu_);
+  Gamma_ = RowMatX::Zero((np_ + 3) * ns_, nc_ * nu_);
   a_changed_rows_.assign(np_, ~std::uint64_t{0});
   a_sources_.assign(static_cast<std::size_t>(np_) * ns_, 0);
   b_changed_rows_.assign(nc_, ~std::uint64_t{0});
@@ -608,6 +614,17 @@ void IncrementalMpc::forward_pass() {
   std::uint64_t previous_changed = 0;  // rows of Γ_{j−1} computed anew (Γ_{−1} = 0 never is)
   int rows_computed = 0;
   const std::uint64_t state_rows = ns_ >= 64 ? all : (std::uint64_t{1} << ns_) - 1;
+  // The rows whose own row of A_j changed at every step (the UAV's x and y) are computed at
+  // every step anyway and need no history: they alternate between two blocks of Γ, so that the
+  // pass touches two rows of theirs, not one a step (a history touched each step is memory the
+  // QP's data would otherwise keep in the cache). A row with no history from the last pass is
+  // computed at every step of this one.
+  std::uint64_t alternating = 0;
+  if (keep) {
+    alternating = state_rows;
+    for (int j = 0; j < np_; ++j) alternating &= a_changed_rows_[j];
+  }
+  const std::uint64_t no_history = keep ? ~history_valid_ & state_rows : all;
   ds_ = d.delta_state;
   y_ = d.output;
   const Eigen::Index ld = Gamma_.outerStride();
@@ -620,10 +637,16 @@ void IncrementalMpc::forward_pass() {
     }
     dsn_ = w_;
     // Γ_{j−1} is the block of rows j·n_s, Γ_j the next one.
-    const double* previous = Gamma_.data() + static_cast<Eigen::Index>(j) * ns_ * ld;
+    // Γ_{j−1}: its block (j), or the alternating block for the alternating rows (Γ_{−1} = 0,
+    // block 0, for all at step 0); Γ_j's are the next ones.
+    const auto block = [&](int b) { return Gamma_.data() + static_cast<Eigen::Index>(b) * ns_ * ld; };
+    const double* previous = block(j);
+    const double* previous_alt = j == 0 ? block(0) : block(np_ + 1 + ((j - 1) & 1));
+    double* now = block(j + 1);
+    double* now_alt = block(np_ + 1 + (j & 1));
     // The rows of Γ_j computed anew: every row without a kept pass; else the rows of A_j
     // (or B_j) that changed, and the rows that sum a changed row of Γ_{j−1}.
-    std::uint64_t changed = keep ? a_changed_rows_[j] : all;
+    std::uint64_t changed = keep ? a_changed_rows_[j] | no_history : all;
     if (j < nc_) changed |= b_changed_rows_[j];
     // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
     // span lies inside it (reaches are closed over A), and its entries outside its own span
@@ -638,9 +661,9 @@ void IncrementalMpc::forward_pass() {
       if ((sources[k] & previous_changed) != 0) changed |= std::uint64_t{1} << (k & 63);
       if ((changed >> (k & 63) & 1) == 0) continue;
       const int lo = state_span_lo_[k];
-      double* row = Gamma_.row((j + 1) * ns_ + k).data();
+      double* row = ((alternating >> (k & 63)) & 1 ? now_alt : now) + k * ld;
       combine_row(row + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first], end - first,
-                  previous + lo, ld);
+                  previous + lo, previous_alt + lo, alternating, ld);
       if (j < nc_) {  // move j starts: its columns of Γ_{j−1} are zero, so B_j is all of them
         for (int e = b_row_begin_[j * ns_ + k]; e < b_row_begin_[j * ns_ + k + 1]; ++e) {
           row[b_entries_[e].col * nc_ + j] = b_entries_[e].value;
@@ -661,7 +684,6 @@ void IncrementalMpc::forward_pass() {
       Yfree_[j * ny_ + k] = v;
     }
     // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
-    const double* gamma = previous + ns_ * ld;
     for (int k = 0; k < ny_; ++k) {
       const int first = c_row_begin_[k], end = c_row_begin_[k + 1];
       const int r = j * ny_ + k;
@@ -675,10 +697,11 @@ void IncrementalMpc::forward_pass() {
       const int lo = output_span_lo_[k];
       const double* above = j > 0 ? Phi_.row(r - ny_).data() + lo : nullptr;
       combine_row(Phi_.row(r).data() + lo, output_span_hi_[k] - lo, above, &c_entries_[first],
-                  end - first, gamma + lo, ld);
+                  end - first, now + lo, now_alt + lo, alternating, ld);
     }
   }
   rows_valid_ = true;
+  history_valid_ = ~alternating & state_rows;
   result_.prediction_rows_computed = rows_computed;
 }
 

@@ -313,10 +313,12 @@ class IncrementalMpc {
 
   // Φ and Γ order their columns by input, then move (see build_prediction).
   RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
-  // ((Np + 1)·n_s)×(Nc·n_u): Γ_{−1} = 0, Γ_0, …, Γ_{Np−1} (block j + 1 holds Γ_j); valid
-  // inside each row's span. All are kept, so that a row that does not change is not computed
-  // again the next step (see forward_pass).
+  // ((Np + 3)·n_s)×(Nc·n_u): Γ_{−1} = 0, Γ_0, …, Γ_{Np−1} (block j + 1 holds Γ_j), then two
+  // alternating blocks; valid inside each row's span. A row is kept for every step, so that a
+  // row that does not change is not computed again the next step, unless it changes at every
+  // step: then it alternates between the last two blocks (see forward_pass).
   RowMatX Gamma_;
+  std::uint64_t history_valid_ = 0;  // rows whose blocks hold the last pass's values
   VecX Yfree_;             // Np·n_y
   VecX qdiag_;             // Np·n_y: diagonal of Q̄
   VecX ds_, dsn_, y_, w_;  // n_s, n_s, n_y, n_s
