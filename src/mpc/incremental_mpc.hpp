@@ -66,6 +66,11 @@
 //    whose entries outside the reaches are exact zeros (see assemble_soft_rows).
 //  - Q̄ is diagonal, so ΦᵀQ̄Φ = Σ_rows q_r φ_r φ_rᵀ; the sum runs over each row's span (from
 //    its first to its last reached input's columns; see build_prediction), four rows at a time.
+//  - What did not change since the last step is kept: a row of Γ_j whose row of A_j and B_j
+//    and whose source rows of Γ_{j−1} are unchanged keeps its values (A's compared as bits),
+//    a row of Φ_j likewise with C, a group's block of H when none of its rows changed, and a
+//    row's range over the move box (see forward_pass). For the UAV only the x and y rows are
+//    computed each step; rows that change at every step alternate between two rows of Γ.
 //  - The input-limit rows, the slack terms and the QP's layout are written once at
 //    construction.
 //  - Soft rows that no move within the move limits can violate are left out of the QP (they
