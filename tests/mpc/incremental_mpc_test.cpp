@@ -327,6 +327,33 @@ TEST(IncrementalMpcCondensing, EqualsDenseCondensingOnTheUavModelWithUnreachedOu
   }
 }
 
+// The UAV's tracker in small: outputs x, y, z, its move weights and rate-limited moves.
+IncrementalMpcOptions uav_options(int np, int nc) {
+  IncrementalMpcOptions o = basic_options(3, vehicle::kInputDim, np, nc);
+  o.output_weight = Eigen::Vector3d(1.0, 1.0, 2.0);
+  o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
+  o.move_min = -Eigen::Vector3d(0.2, 0.03, 0.1);
+  o.move_max = Eigen::Vector3d(0.2, 0.03, 0.1);
+  return o;
+}
+
+// The UAV's Jacobians (Δt 0.1 s) along a nominal turning at heading_rate a step and speeding
+// up by speed_rate a step, and C reading the position.
+void set_uav_plant(IncrementalMpcData& d, double psi0, double heading_rate, double speed_rate) {
+  const vehicle::VehicleParams p;
+  for (std::size_t j = 0; j < d.A.size(); ++j) {
+    vehicle::State s = vehicle::State::Zero();
+    s[vehicle::kPsi] = psi0 + heading_rate * static_cast<double>(j);
+    s[vehicle::kV] = 12.0 + speed_rate * static_cast<double>(j);
+    const vehicle::Jacobians J = vehicle::discrete_jacobians(s, p, 0.1);
+    d.A[j] = J.A;
+    d.B[j] = J.B;
+    d.E[j] = J.E;
+  }
+  d.C = MatX::Zero(3, vehicle::kStateDim);
+  d.C.leftCols(3).setIdentity();
+}
+
 // Bit for bit (memcmp: −0 differs from +0, a NaN equals the same NaN).
 template <typename Matrix>
 bool same_bits(const Matrix& a, const Matrix& b) {
@@ -342,32 +369,15 @@ bool same_bits(const Matrix& a, const Matrix& b) {
 // input's move box, a NaN entry and its removal, or nothing at all.
 TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
   std::mt19937 rng(8);
-  const vehicle::VehicleParams p;
   const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 24, nc = 6;
-  IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
-  o.output_weight = Eigen::Vector3d(1.0, 1.0, 2.0);
-  o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
-  o.move_min = -Eigen::Vector3d(0.2, 0.03, 0.1);
-  o.move_max = Eigen::Vector3d(0.2, 0.03, 0.1);
+  const IncrementalMpcOptions o = uav_options(np, nc);
   const IncrementalMpcDims dims{ns, nu, ny, 3, 2 * np, 2};
   IncrementalMpc kept(dims, o);
   IncrementalMpcData& d = kept.data();
   std::uniform_real_distribution<double> heading(-kPi, kPi), unit(0.0, 1.0);
   std::uniform_int_distribution<int> any_step(0, np - 1), move_step(0, nc - 1);
-  const auto uav_plant = [&](double psi0) {
-    for (int j = 0; j < np; ++j) {
-      vehicle::State s = vehicle::State::Zero();
-      s[vehicle::kPsi] = psi0 + 0.03 * j;
-      s[vehicle::kV] = 12.0 + 0.1 * j;
-      const vehicle::Jacobians J = vehicle::discrete_jacobians(s, p, 0.1);
-      d.A[j] = J.A;
-      d.B[j] = J.B;
-      d.E[j] = J.E;
-    }
-  };
+  const auto uav_plant = [&](double psi0) { set_uav_plant(d, psi0, 0.03, 0.1); };
   uav_plant(0.3);
-  d.C = MatX::Zero(ny, ns);
-  d.C.leftCols(3).setIdentity();
   constexpr int kChanges = 11;
   const int all_rows = (ns + ny) * np;
   int fewer = 0, none = 0;
@@ -485,13 +495,8 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
 // hot start also meets rows that moved in the QP.
 TEST(IncrementalMpcSoftRows, RedundantRowsLeftOutChangeNothing) {
   std::mt19937 rng(5);
-  const vehicle::VehicleParams p;
   const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 40, nc = 10;
-  IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
-  o.output_weight = Eigen::Vector3d(1.0, 1.0, 2.0);
-  o.move_weight = Eigen::Vector3d(2.0, 200.0, 2.0);
-  o.move_min = -Eigen::Vector3d(0.2, 0.03, 0.1);
-  o.move_max = Eigen::Vector3d(0.2, 0.03, 0.1);
+  IncrementalMpcOptions o = uav_options(np, nc);
   o.qp_settings = {.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};  // the tracker's
   IncrementalMpcOptions all_rows = o;
   all_rows.drop_redundant_soft_rows = false;
@@ -505,17 +510,7 @@ TEST(IncrementalMpcSoftRows, RedundantRowsLeftOutChangeNothing) {
       std::mt19937 data_rng(seed);
       IncrementalMpcData& d = mpc->data();
       const double psi0 = heading(data_rng);
-      for (int j = 0; j < np; ++j) {
-        vehicle::State s = vehicle::State::Zero();
-        s[vehicle::kPsi] = psi0 + 0.02 * j;
-        s[vehicle::kV] = 12.0;
-        const vehicle::Jacobians J = vehicle::discrete_jacobians(s, p, 0.1);
-        d.A[j] = J.A;
-        d.B[j] = J.B;
-        d.E[j] = J.E;
-      }
-      d.C = MatX::Zero(ny, ns);
-      d.C.leftCols(3).setIdentity();
+      set_uav_plant(d, psi0, 0.02, 0.0);
       // Flying at 12 m/s along ψ0, the reference a few metres off the straight path.
       d.delta_state = random_matrix(data_rng, ns, 1, 0.02);
       d.delta_state[0] += 1.2 * std::cos(psi0);
