@@ -279,6 +279,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   c_row_begin_.assign(ny_ + 1, 0);
   b_entries_.resize(static_cast<std::size_t>(nc_) * ns_ * nu_);
   b_row_begin_.assign(static_cast<std::size_t>(nc_) * ns_ + 1, 0);
+  b_copy_.assign(static_cast<std::size_t>(nc_) * ns_ * nu_, 0.0);
+  b_reach_.assign(ns_, 0);
   a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
   Gamma_ = RowMatX::Zero((np_ + 3) * ns_, nc_ * nu_);
@@ -477,33 +479,25 @@ void IncrementalMpc::collect_plant_nonzeros() {
   c_changed_ = c_changed_ || c_count != c_count_;
   c_count_ = c_count;
   c_row_begin_[ny_] = c_count_;
+  // The nonzeros of the B_j of the moves (j < Nc), listed by row. A plant's B_j rarely change
+  // (the UAV's are constant): compared as bits with the copy listed last time, unchanged B_j
+  // keep their listing, and their rows count as unchanged.
+  const std::size_t b_size = static_cast<std::size_t>(ns_) * nu_;
+  bool b_same = b_listed_;
+  for (int j = 0; j < nc_ && b_same; ++j) {
+    b_same = std::memcmp(d.B[j].data(), &b_copy_[j * b_size], b_size * sizeof(double)) == 0;
+  }
+  if (b_same) {
+    std::fill(b_changed_rows_.begin(), b_changed_rows_.end(), 0);
+  } else {
+    list_b_nonzeros();
+  }
   // The reach of each state (bit c: some move of input c changes it at some step): the
   // inputs of its B rows, closed over the union pattern of the A_j. Outside its reach a row of
   // Γ is zero at every step, and so is an output's row of Φ outside the union of the reaches
-  // its C row reads.
-  // The nonzeros of the B_j of the moves (j < Nc) are listed by row on the way.
-  std::fill(state_reach_.begin(), state_reach_.end(), 0);
-  int nb = 0;
-  for (int j = 0; j < nc_; ++j) {
-    const MatX& B = d.B[j];
-    b_changed_rows_[j] = 0;
-    for (int k = 0; k < ns_; ++k) {
-      const int row = j * ns_ + k;
-      const int old_begin = b_row_begin_[row], old_end = b_row_begin_[row + 1];
-      bool changed = old_begin != nb;
-      b_row_begin_[row] = nb;
-      for (int c = 0; c < nu_; ++c) {
-        const double v = B(k, c);
-        if (v == 0.0) continue;
-        const Entry entry{k, c, v};
-        changed = changed || nb >= old_end || !same_entry(b_entries_[nb], entry);
-        b_entries_[nb++] = entry;
-        state_reach_[k] |= std::uint64_t{1} << c;
-      }
-      if (changed || nb != old_end) b_changed_rows_[j] |= std::uint64_t{1} << (k & 63);
-    }
-  }
-  b_row_begin_[nc_ * ns_] = nb;
+  // its C row reads. With B, the pattern and C as last time, the reaches are too.
+  if (b_same && same && !c_changed_) return;
+  state_reach_ = b_reach_;
   for (bool changed = true; changed;) {
     changed = false;
     for (int k = 0; k < ns_; ++k) {
@@ -525,6 +519,38 @@ void IncrementalMpc::collect_plant_nonzeros() {
   };
   for (int k = 0; k < ns_; ++k) span(state_reach_[k], state_span_lo_[k], state_span_hi_[k]);
   for (int k = 0; k < ny_; ++k) span(output_reach_[k], output_span_lo_[k], output_span_hi_[k]);
+}
+
+void IncrementalMpc::list_b_nonzeros() {
+  const IncrementalMpcData& d = data_;
+  const auto same_entry = [](const Entry& a, const Entry& b) {
+    return a.row == b.row && a.col == b.col && a.value == b.value;
+  };
+  const std::size_t b_size = static_cast<std::size_t>(ns_) * nu_;
+  std::fill(b_reach_.begin(), b_reach_.end(), 0);
+  int nb = 0;
+  for (int j = 0; j < nc_; ++j) {
+    const MatX& B = d.B[j];
+    std::memcpy(&b_copy_[j * b_size], B.data(), b_size * sizeof(double));
+    b_changed_rows_[j] = 0;
+    for (int k = 0; k < ns_; ++k) {
+      const int row = j * ns_ + k;
+      const int old_begin = b_row_begin_[row], old_end = b_row_begin_[row + 1];
+      bool changed = !b_listed_ || old_begin != nb;
+      b_row_begin_[row] = nb;
+      for (int c = 0; c < nu_; ++c) {
+        const double v = B(k, c);
+        if (v == 0.0) continue;
+        const Entry entry{k, c, v};
+        changed = changed || nb >= old_end || !same_entry(b_entries_[nb], entry);
+        b_entries_[nb++] = entry;
+        b_reach_[k] |= std::uint64_t{1} << c;
+      }
+      if (changed || nb != old_end) b_changed_rows_[j] |= std::uint64_t{1} << (k & 63);
+    }
+  }
+  b_row_begin_[nc_ * ns_] = nb;
+  b_listed_ = true;
 }
 
 void IncrementalMpc::group_rows_by_span() {

@@ -260,6 +260,7 @@ class IncrementalMpc {
   // emits the dispatcher of a cloned function in each file that calls it, and only
   // incremental_mpc.cpp holds the clones.
   RIDGELINE_SIMD_CLONES void collect_plant_nonzeros();
+  void list_b_nonzeros();  // after a change of some B_j (collect_plant_nonzeros)
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
   void write_hessian_block(int lo, int hi);
@@ -296,6 +297,11 @@ class IncrementalMpc {
   // b_entries_[b_row_begin_[j·n_s + k], …[j·n_s + k + 1]); col is the input).
   std::vector<Entry> b_entries_;  // capacity Nc·n_s·n_u
   std::vector<int> b_row_begin_;  // Nc·n_s + 1
+  // The B_j of the moves as last listed (Nc·n_s·n_u, column-major each), whether a listing
+  // exists, and each state's inputs in some B_j row (bit c: input c; n_s).
+  std::vector<double> b_copy_;
+  bool b_listed_ = false;
+  std::vector<std::uint64_t> b_reach_;
   int c_count_ = 0;
   std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
   // What changed since the last build_prediction, as masks of rows (bit k: row k; used when

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -170,6 +171,60 @@ TEST(QpSolverTest, RejectsInvalidInput) {
   asymmetric.H(0, 1) = 0.5;
   EXPECT_EQ(solver.solve(asymmetric).status, QpStatus::kInvalidInput);
   EXPECT_EQ(to_string(QpStatus::kInvalidInput), "invalid input");
+}
+
+// The input checks read H in 4×4 tiles and the vectors four at a time with a scalar tail:
+// every position of every size, inside a tile, on the diagonal tiles and in the tail, must be
+// seen. An asymmetry just over the tolerance (1e-10 relative) is rejected wherever it is, one
+// just under it is accepted; a NaN or an infinity anywhere is rejected, while the largest
+// finite values, −0 and denormals are accepted.
+TEST(QpSolverTest, InputChecksSeeEveryEntry) {
+  QpSolver solver;
+  for (int n = 1; n <= 13; ++n) {
+    QpProblem q;
+    q.H = Eigen::MatrixXd::Identity(n, n) * 4.0;
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < i; ++j) q.H(i, j) = q.H(j, i) = 0.1 / (1.0 + i + j);
+    }
+    q.f = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0);
+    q.G.resize(0, n);
+    q.A.resize(0, n);
+    ASSERT_EQ(solver.solve(q).status, QpStatus::kSolved) << n;
+    const double tol = 1e-10 * 4.0;  // relative to max |H_ij| = 4
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        if (i == j) continue;
+        QpProblem bad = q;
+        bad.H(i, j) += 1.5 * tol;
+        EXPECT_EQ(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " " << i << " " << j;
+        bad.H(i, j) = q.H(i, j) - 0.5 * tol;
+        EXPECT_NE(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " " << i << " " << j;
+      }
+    }
+  }
+  for (int n = 1; n <= 40; ++n) {
+    QpProblem q;
+    q.H = Eigen::MatrixXd::Identity(n, n);
+    q.f = Eigen::VectorXd::Zero(n);
+    q.G = Eigen::MatrixXd::Identity(n, n);
+    q.lg = Eigen::VectorXd::Constant(n, -1.0);
+    q.ug = Eigen::VectorXd::Constant(n, 1.0);
+    q.A.resize(0, n);
+    q.f[0] = std::numeric_limits<double>::max();
+    q.f[n - 1] = -0.0;
+    if (n > 2) q.f[1] = std::numeric_limits<double>::denorm_min();
+    EXPECT_NE(solver.solve(q).status, QpStatus::kInvalidInput) << n;
+    for (int i = 0; i < n; ++i) {
+      for (const double v : {std::nan(""), kInfinity, -kInfinity}) {
+        QpProblem bad = q;
+        bad.f[i] = v;
+        EXPECT_EQ(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " f " << i;
+        bad = q;
+        bad.G(i, (i * 7) % n) = v;
+        EXPECT_EQ(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " G " << i;
+      }
+    }
+  }
 }
 
 // A sequence of nearby QPs like the MPC's: a tracking problem whose target moves a little each
