@@ -598,6 +598,20 @@ void IncrementalMpc::build_prediction() {
   forward_pass();
 }
 
+const double* IncrementalMpc::known_term(int j) {
+  // w_j = state offset + E_j·(forecast increment). The increment is usually zero after the first
+  // step (a held measurement), and E·0 would add exact zeros: then w_j is the column of the
+  // offsets itself, read in place.
+  const IncrementalMpcData& d = data_;
+  const double* increment = d.disturbance_delta.col(j).data();
+  bool zero = true;
+  for (int i = 0; i < nd_; ++i) zero = zero && increment[i] == 0.0;
+  if (zero) return d.state_offset.col(j).data();
+  w_.noalias() = d.state_offset.col(j);
+  w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+  return w_.data();
+}
+
 void IncrementalMpc::forward_pass() {
   const IncrementalMpcData& d = data_;
   // One forward pass (eq. 7–9) over the stage matrices. Γ holds ∂Δs_{j+1}/∂ΔU; the free
@@ -651,17 +665,14 @@ void IncrementalMpc::forward_pass() {
     for (int j = 0; j < np_; ++j) alternating &= a_changed_rows_[j];
   }
   const std::uint64_t no_history = keep ? ~history_valid_ & state_rows : all;
-  ds_ = d.delta_state;
+  // The free increments ds_{j−1} and ds_j, in the two buffers by turns.
+  double* ds = ds_.data();
+  double* dsn = dsn_.data();
+  std::copy_n(d.delta_state.data(), ns_, ds);
   y_ = d.output;
   const Eigen::Index ld = Gamma_.outerStride();
   for (int j = 0; j < np_; ++j) {
-    w_ = d.state_offset.col(j);
-    // A forecast increment is usually zero after the first step (a held measurement): E·0
-    // would add exact zeros.
-    if (nd_ > 0 && !d.disturbance_delta.col(j).isZero(0.0)) {
-      w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
-    }
-    dsn_ = w_;
+    const double* w = known_term(j);
     // Γ_{j−1} is the block of rows j·n_s, Γ_j the next one.
     // Γ_{j−1}: its block (j), or the alternating block for the alternating rows (Γ_{−1} = 0,
     // block 0, for all at step 0); Γ_j's are the next ones.
@@ -681,9 +692,9 @@ void IncrementalMpc::forward_pass() {
     const std::uint64_t* sources = &a_sources_[static_cast<std::size_t>(j) * ns_];
     for (int k = 0; k < ns_; ++k) {
       const int first = row_begin[k], end = row_begin[k + 1];
-      double v = dsn_[k];
-      for (int e = first; e < end; ++e) v += a_entries_[e].value * ds_[a_entries_[e].col];
-      dsn_[k] = v;
+      double v = w[k];
+      for (int e = first; e < end; ++e) v += a_entries_[e].value * ds[a_entries_[e].col];
+      dsn[k] = v;
       if ((sources[k] & previous_changed) != 0) changed |= std::uint64_t{1} << (k & 63);
       if ((changed >> (k & 63) & 1) == 0) continue;
       const int lo = state_span_lo_[k];
@@ -698,13 +709,13 @@ void IncrementalMpc::forward_pass() {
     }
     previous_changed = changed;
     rows_computed += ns_ <= 64 ? std::popcount(changed & state_rows) : ns_;
-    std::swap(ds_, dsn_);
-    // y_j = y_{j−1} + C ds_j row by row in scalars: ds_ was just written entry by entry, and a
+    std::swap(ds, dsn);
+    // y_j = y_{j−1} + C ds_j row by row in scalars: ds was just written entry by entry, and a
     // vector load of it would wait for those stores to retire instead of forwarding them.
     for (int k = 0; k < ny_; ++k) {
       double v = y_[k];
       for (int ec = c_row_begin_[k]; ec < c_row_begin_[k + 1]; ++ec) {
-        v += c_entries_[ec].value * ds_[c_entries_[ec].col];
+        v += c_entries_[ec].value * ds[c_entries_[ec].col];
       }
       y_[k] = v;
       Yfree_[j * ny_ + k] = v;
@@ -1103,43 +1114,42 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
 
   // Predicted outputs and states under ΔU: step the augmented system (eq. 7) directly, over
   // the nonzeros of A_j listed by build_prediction().
-  ds_ = d.delta_state;
+  double* ds = ds_.data();
+  double* dsn = dsn_.data();
+  std::copy_n(d.delta_state.data(), ns_, ds);
   double* s = result_.predicted_states.data();
   double* y = result_.predicted_outputs.data();
   const double* s_prev = d.state.data();
   const double* y_prev = d.output.data();
   double cost = 0.0;
   for (int j = 0; j < np_; ++j) {
-    w_ = d.state_offset.col(j);
-    if (nd_ > 0 && !d.disturbance_delta.col(j).isZero(0.0)) {
-      w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
-    }
-    if (j < nc_) {  // w += B_j Δu_j over B_j's nonzeros, each row's product summed first
-      const double* du = result_.moves.data() + j * nu_;
-      for (int k = 0; k < ns_; ++k) {
-        const int first = b_row_begin_[j * ns_ + k], end = b_row_begin_[j * ns_ + k + 1];
-        if (first == end) continue;
-        double t = 0.0;
-        for (int e = first; e < end; ++e) t += b_entries_[e].value * du[b_entries_[e].col];
-        w_[k] += t;
-      }
-    }
+    const double* w = known_term(j);
+    const double* du = result_.moves.data() + j * nu_;
     // Row by row in scalars (the entries are listed by row): each value is used right where
     // it is computed, never reloaded as a vector from scalar stores (a store-forwarding stall).
+    // For a move, w + B_j Δu_j first, each row's product over B_j's nonzeros summed first.
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
+    const int* b_row_begin = j < nc_ ? &b_row_begin_[static_cast<std::size_t>(j) * ns_] : nullptr;
     for (int k = 0; k < ns_; ++k) {
-      double v = w_[k];
-      for (int e = row_begin[k]; e < row_begin[k + 1]; ++e) {
-        v += a_entries_[e].value * ds_[a_entries_[e].col];
+      double v = w[k];
+      if (b_row_begin != nullptr && b_row_begin[k] != b_row_begin[k + 1]) {
+        double t = 0.0;
+        for (int e = b_row_begin[k]; e < b_row_begin[k + 1]; ++e) {
+          t += b_entries_[e].value * du[b_entries_[e].col];
+        }
+        v += t;
       }
-      dsn_[k] = v;
+      for (int e = row_begin[k]; e < row_begin[k + 1]; ++e) {
+        v += a_entries_[e].value * ds[a_entries_[e].col];
+      }
+      dsn[k] = v;
       s[k] = s_prev[k] + v;
     }
-    std::swap(ds_, dsn_);
+    std::swap(ds, dsn);
     for (int k = 0; k < ny_; ++k) {
       double v = y_prev[k];
       for (int e = c_row_begin_[k]; e < c_row_begin_[k + 1]; ++e) {
-        v += c_entries_[e].value * ds_[c_entries_[e].col];
+        v += c_entries_[e].value * ds[c_entries_[e].col];
       }
       y[k] = v;
       const double err = d.reference(k, j) - v;

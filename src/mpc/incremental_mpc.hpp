@@ -261,6 +261,7 @@ class IncrementalMpc {
   // incremental_mpc.cpp holds the clones.
   RIDGELINE_SIMD_CLONES void collect_plant_nonzeros();
   void list_b_nonzeros();  // after a change of some B_j (collect_plant_nonzeros)
+  const double* known_term(int j);  // w_j of eq. 7: n_s values, valid until the next call
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
   void write_hessian_block(int lo, int hi);

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -59,21 +61,63 @@ Vec2 peak_gradient(const Peak& p, double value, double x_m, double y_m) {
               -2.0 * value * (y_m - p.y_m) / (p.sigma_y_m * p.sigma_y_m));
 }
 
-// score[i] = ln h_i − q_i for the peaks [0, n) given as columns (the reciprocals of the
-// widths, so no division): the terrain is read at every predicted position of every MPC step
-// and at every slot-search sample, and this loop is most of a read. The scores only choose
-// the peak; its value is computed again as before (peak_exponent), so a score's round-off
-// matters only where two peaks tie to round-off.
-RIDGELINE_SIMD_CLONES void peak_scores(const double* __restrict x0, const double* __restrict y0,
-                                       const double* __restrict inv_sx,
-                                       const double* __restrict inv_sy,
-                                       const double* __restrict log_h, int n, double x_m,
-                                       double y_m, double* __restrict score) {
-  for (int i = 0; i < n; ++i) {
+typedef double Vec4 __attribute__((vector_size(32)));
+typedef long long Mask4 __attribute__((vector_size(32)));  // a comparison: −1 where true
+
+// The dominant peak: the highest score ln h_i − q_i (the lowest index on a tie), or 0 when no
+// score is above −∞ (a NaN position). The peaks are given as columns, with the reciprocals of
+// their widths (no division). The terrain is read at every predicted position of every MPC step
+// and at every slot-search sample, and this search is most of a read: scores and their maximum
+// are taken in one pass, four peaks at a time in lanes that each keep their best. The scores
+// only choose the peak; its value is computed again as before (peak_exponent), so a score's
+// round-off matters only where two peaks tie to round-off.
+RIDGELINE_SIMD_CLONES int best_peak(const double* __restrict x0, const double* __restrict y0,
+                                    const double* __restrict inv_sx,
+                                    const double* __restrict inv_sy,
+                                    const double* __restrict log_h, int n, double x_m,
+                                    double y_m) {
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  int best = 0;
+  double best_score = kNone;
+  int i = 0;
+  if (n >= 8) {
+    const Vec4 x = {x_m, x_m, x_m, x_m}, y = {y_m, y_m, y_m, y_m};
+    Vec4 lane_score = {kNone, kNone, kNone, kNone};
+    Mask4 lane_index = {-1, -1, -1, -1}, index = {0, 1, 2, 3};
+    const Mask4 four = {4, 4, 4, 4};
+    for (; i + 4 <= n; i += 4) {
+      Vec4 px, py, sx, sy, lh;
+      std::memcpy(&px, x0 + i, sizeof px);
+      std::memcpy(&py, y0 + i, sizeof py);
+      std::memcpy(&sx, inv_sx + i, sizeof sx);
+      std::memcpy(&sy, inv_sy + i, sizeof sy);
+      std::memcpy(&lh, log_h + i, sizeof lh);
+      const Vec4 dx = (x - px) * sx, dy = (y - py) * sy;
+      const Vec4 score = lh - (dx * dx + dy * dy);
+      const Mask4 better = score > lane_score;  // strict: a lane keeps its first on a tie
+      lane_score = better ? score : lane_score;
+      lane_index = better ? index : lane_index;
+      index += four;
+    }
+    for (int l = 0; l < 4; ++l) {  // the lanes hold different peaks: the lowest on a tie
+      if (lane_index[l] < 0) continue;
+      const int candidate = static_cast<int>(lane_index[l]);
+      if (lane_score[l] > best_score || (lane_score[l] == best_score && candidate < best)) {
+        best = candidate;
+        best_score = lane_score[l];
+      }
+    }
+  }
+  for (; i < n; ++i) {  // later peaks than any lane's: strictly better only
     const double dx = (x_m - x0[i]) * inv_sx[i];
     const double dy = (y_m - y0[i]) * inv_sy[i];
-    score[i] = log_h[i] - (dx * dx + dy * dy);
+    const double score = log_h[i] - (dx * dx + dy * dy);
+    if (score > best_score) {
+      best = i;
+      best_score = score;
+    }
   }
+  return best;
 }
 
 }  // namespace
@@ -108,27 +152,13 @@ PeakTerrain::PeakTerrain(PeakTerrainConfig config, const std::string& path)
 }
 
 const Peak* PeakTerrain::dominant(double x_m, double y_m, double* value) const {
-  constexpr int kBatch = 32;  // scores on the stack: no allocation, any number of peaks
-  double score[kBatch];
   const int n = static_cast<int>(config_.peaks.size());
-  int best = -1;
-  double best_score = 0.0;
-  for (int begin = 0; begin < n; begin += kBatch) {
-    const int count = std::min(kBatch, n - begin);
-    peak_scores(peak_x_.data() + begin, peak_y_.data() + begin,
-                peak_inv_sigma_x_.data() + begin, peak_inv_sigma_y_.data() + begin,
-                log_height_.data() + begin, count, x_m, y_m, score);
-    for (int i = 0; i < count; ++i) {  // ln(h·e); the lowest index on a tie
-      if (best < 0 || score[i] > best_score) {
-        best = begin + i;
-        best_score = score[i];
-      }
-    }
-  }
-  if (best < 0) {
+  if (n == 0) {
     *value = 0.0;
     return nullptr;
   }
+  const int best = best_peak(peak_x_.data(), peak_y_.data(), peak_inv_sigma_x_.data(),
+                             peak_inv_sigma_y_.data(), log_height_.data(), n, x_m, y_m);
   const Peak& p = config_.peaks[static_cast<std::size_t>(best)];
   *value = p.height_m * std::exp(-peak_exponent(p, x_m, y_m));
   return &p;

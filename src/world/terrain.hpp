@@ -84,9 +84,10 @@ class PeakTerrain : public Terrain {
   /// For `max`: the dominant peak at (x, y) and its value h·e (nullptr without peaks). It
   /// compares ln h_i − q_i, q_i the exponent, so one exp is taken instead of one per peak; the
   /// same peak as comparing the values h_i·e_i except where two differ by round-off.
-  /// The scores are computed a batch at a time from the columns below (a vector loop, with
-  /// the widths' reciprocals); the exponent of the chosen peak is then computed as in height(),
-  /// so the value does not depend on that loop's round-off.
+  /// The scores and their maximum are taken in one pass over the columns below (four peaks at
+  /// a time, with the widths' reciprocals; the lowest index on a tie); the exponent of the
+  /// chosen peak is then computed as in height(), so the value does not depend on that pass's
+  /// round-off.
   const Peak* dominant(double x_m, double y_m, double* value) const;
 
   PeakTerrainConfig config_;

@@ -118,6 +118,34 @@ TEST(PeakTerrainTest, MaxFieldMatchesBruteForceOverAllPeaks) {
   EXPECT_GT(compared, 4900);
 }
 
+// Two peaks of the same height and width on either side of the query point tie exactly; the
+// max field must take the lower index, wherever the two sit among the others (in the same
+// lane, in different lanes or passes of the four-at-a-time search, in its scalar tail), which
+// the gradient's sign shows. The other peaks are far away and low.
+TEST(PeakTerrainTest, MaxFieldTakesTheLowerIndexOnAnExactTie) {
+  const double x = 1000.0, y = 1000.0, d = 30.0;
+  int compared = 0;
+  for (const int n : {2, 7, 8, 9, 12, 13, 17}) {
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        if (i == j) continue;
+        PeakTerrainConfig config;
+        config.combination = PeakCombination::kMax;
+        for (int k = 0; k < n; ++k) config.peaks.push_back({5000.0 + 100 * k, -4000.0, 1.0, 50, 50});
+        config.peaks[static_cast<std::size_t>(i)] = {x - d, y, 200.0, 100.0, 80.0};  // left
+        config.peaks[static_cast<std::size_t>(j)] = {x + d, y, 200.0, 100.0, 80.0};  // right
+        const PeakTerrain terrain(config);
+        // The left peak's slope at the point falls to +x (negative), the right one's rises.
+        const double slope = terrain.gradient(x, y).x();
+        EXPECT_EQ(slope < 0.0, i < j) << n << " " << i << " " << j;
+        EXPECT_NE(slope, 0.0);
+        ++compared;
+      }
+    }
+  }
+  EXPECT_GT(compared, 600);
+}
+
 // height_and_gradient is what the MPC's clearance rows read: it must equal height() and
 // gradient() bit for bit, for both combinations, for more peaks than one batch of the
 // dominant-peak search (32), on a raster (the default of the interface) and with no peaks.
