@@ -52,18 +52,49 @@ struct Rotation {
 // Eigen's blocked LLT, whose panel products are sized for larger matrices.
 // On raw column-major storage (leading dimensions ldh, ldl), so that the active set's small
 // Gram matrix uses it too; L may be H (in place).
+//
+// With `end` (n entries, not in place), each column's envelope is found on the way: end[j] is
+// one past the last row of column j of L that can be nonzero. An earlier column k fills
+// column j down to end[k] only if its envelope reaches row j (L(j, k) ≠ 0 needs j < end[k]),
+// so end[j] is the last nonzero of H's column or, if it reaches further, the largest end of
+// the earlier columns when that lies past j — for a block-diagonal H, the end of the block. The
+// column is computed down to it and stored as zeros below, so a block-diagonal H (an MPC's
+// inputs that no output couples, its slacks) costs its blocks, and the triangular solves stop
+// at the same rows. Rows below an envelope are exact zeros either way: only the sign of a zero
+// can differ from the whole-column computation.
 RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, double* L,
-                                          Eigen::Index ldl, Eigen::Index n) {
+                                          Eigen::Index ldl, Eigen::Index n, int* end) {
   const auto L_at = [&](Eigen::Index i, Eigen::Index k) { return L[k * ldl + i]; };
+  // The largest end[k] of the columns so far; end[] never decreases (each column's end is at
+  // least this), so the first column whose envelope reaches row j only moves down: the columns
+  // before it (in whole fours, to keep the four-column passes below) add nothing to column j.
+  Eigen::Index reach = 0;
+  Eigen::Index first_coupled = 0;
   for (Eigen::Index j = 0; j < n; ++j) {
     double* __restrict col = L + j * ldl;
     const double* h = H + j * ldh;
+    Eigen::Index last = n;
+    if (end != nullptr) {
+      last = std::max(j + 1, reach);
+      for (Eigen::Index i = n; i > last; --i) {  // H's last nonzero below
+        if (h[i - 1] != 0.0) {
+          last = i;
+          break;
+        }
+      }
+      end[j] = static_cast<int>(last);
+      reach = std::max(reach, last);
+    }
     if (h != col) {
-      for (Eigen::Index i = j; i < n; ++i) col[i] = h[i];
+      for (Eigen::Index i = j; i < last; ++i) col[i] = h[i];
     }
     // Four earlier columns a pass, so each entry of the column is loaded and stored once per
     // four updates (the subtractions keep their order k = 0, 1, …).
     Eigen::Index k = 0;
+    if (end != nullptr) {
+      while (first_coupled < j && end[first_coupled] <= j) ++first_coupled;
+      k = first_coupled / 4 * 4;
+    }
     for (; k + 4 <= j; k += 4) {
       const double* __restrict l0 = L + k * ldl;
       const double* __restrict l1 = L + (k + 1) * ldl;
@@ -73,7 +104,7 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
       // Exact zeros of L (uncoupled variables, e.g. an MPC's inputs no output couples) add
       // nothing: skipping them gives the same column.
       if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
-      for (Eigen::Index i = j; i < n; ++i) {
+      for (Eigen::Index i = j; i < last; ++i) {
         col[i] = col[i] - a0 * l0[i] - a1 * l1[i] - a2 * l2[i] - a3 * l3[i];
       }
     }
@@ -81,19 +112,21 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
       const double* __restrict lk = L + k * ldl;
       const double a = L_at(j, k);
       if (a == 0.0) continue;
-      for (Eigen::Index i = j; i < n; ++i) col[i] -= a * lk[i];
+      for (Eigen::Index i = j; i < last; ++i) col[i] -= a * lk[i];
     }
     const double pivot = col[j];
     if (!(pivot > 0.0)) return false;
     const double d = std::sqrt(pivot);
     col[j] = d;
-    for (Eigen::Index i = j + 1; i < n; ++i) col[i] /= d;
+    for (Eigen::Index i = j + 1; i < last; ++i) col[i] /= d;
+    for (Eigen::Index i = last; i < n; ++i) col[i] = 0.0;
   }
   return true;
 }
 
-bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L) {
-  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows());
+// L_ = chol(H) with its envelope (the active set's factor).
+bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L, int* end) {
+  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows(), end);
 }
 
 // max |L(j, j)| / min |L(j, j)| of a Cholesky factor: its square estimates the condition
@@ -125,24 +158,32 @@ inline __attribute__((always_inline)) double dot(const double* __restrict a,
 
 // y ← L⁻¹y for lower-triangular L (column-major, leading dimension ld): forward substitution
 // down L's columns, contiguous axpys; a zero stays zero without its axpy.
+// With `end` (cholesky_lower's envelope), each axpy stops where its column's nonzeros do.
 RIDGELINE_SIMD_CLONES void forward_substitute(const double* L, Eigen::Index ld, Eigen::Index n,
-                                              double* __restrict y) {
+                                              double* __restrict y, const int* end) {
   for (Eigen::Index j = 0; j < n; ++j) {
     if (y[j] == 0.0) continue;
     const double* __restrict l = L + j * ld;
     y[j] /= l[j];
     const double a = y[j];
-    for (Eigen::Index i = j + 1; i < n; ++i) y[i] -= a * l[i];
+    const Eigen::Index last = end != nullptr ? end[j] : n;
+    for (Eigen::Index i = j + 1; i < last; ++i) y[i] -= a * l[i];
   }
 }
 
 // x ← L⁻ᵀx: x_j = (x_j − Σ_{i>j} L(i, j)·x_i) / L(j, j) from the last j, each sum a dot
 // product down a column of L.
+// With `end`, each dot product stops at the first whole four of terms past its column's
+// nonzeros (or at n): the terms it leaves out are exact zeros, and the ones it keeps go to the
+// same partial sums as over the whole column.
 RIDGELINE_SIMD_CLONES void back_substitute_transposed(const double* L, Eigen::Index ld,
-                                                      Eigen::Index n, double* __restrict x) {
+                                                      Eigen::Index n, double* __restrict x,
+                                                      const int* end) {
   for (Eigen::Index j = n - 1; j >= 0; --j) {
     const double* l = L + j * ld;
-    x[j] = (x[j] - dot(l + j + 1, x + j + 1, n - j - 1)) / l[j];
+    Eigen::Index count = n - j - 1;
+    if (end != nullptr) count = std::min(count, (end[j] - j - 1 + 3) / 4 * 4);
+    x[j] = (x[j] - dot(l + j + 1, x + j + 1, count)) / l[j];
   }
 }
 
@@ -156,9 +197,10 @@ RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, 
 }
 
 // Y[:, 0..k) ← L⁻¹Y by forward substitution, column by column: each step is a contiguous axpy
-// down a column of L (Eigen's blocked triangular solve is sized for larger matrices).
-RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, Eigen::MatrixXd& Y,
-                                               int k) {
+// down a column of L (Eigen's blocked triangular solve is sized for larger matrices), stopping
+// at the column's envelope (cholesky_lower).
+RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, const int* end,
+                                               Eigen::MatrixXd& Y, int k) {
   const Eigen::Index n = L.rows();
   for (int c = 0; c < k; ++c) {
     double* __restrict y = Y.col(c).data();
@@ -167,7 +209,7 @@ RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, Eigen::
       y[j] /= L(j, j);
       const double a = y[j];
       const double* __restrict l = L.col(j).data();
-      for (Eigen::Index i = j + 1; i < n; ++i) y[i] -= a * l[i];
+      for (Eigen::Index i = j + 1; i < end[j]; ++i) y[i] -= a * l[i];
     }
   }
 }
@@ -221,6 +263,7 @@ void DualActiveSet::resize(int n, int m, int p) {
     n_ = n;
     p_ = p;
     L_.setZero(n, n);
+    l_end_.assign(n, n);
     J_.setZero(n, n);
     R_.setZero(n, n);
     Y_.setZero(n, n);
@@ -488,7 +531,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   // arithmetic (about 20 k instructions of the MPC's step).
   const Eigen::Index n = n_;
   jtf_ = q.f;  // g = L⁻¹f
-  forward_substitute(L_.data(), L_.outerStride(), n, jtf_.data());
+  forward_substitute(L_.data(), L_.outerStride(), n, jtf_.data(), l_end_.data());
   x_ = -jtf_;
   if (k > 0) {
     auto Y = Y_.leftCols(k);
@@ -496,17 +539,17 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       Y.col(j).setZero();
       add_normal(active_[j], 1.0, Y.col(j));
     }
-    solve_lower_columns(L_, Y_, k);
+    solve_lower_columns(L_, l_end_.data(), Y_, k);
     // S = YᵀY = NᵀH⁻¹N, factored in place.
     double* S = S_.data();
     const Eigen::Index lds = S_.outerStride();
     gram_lower(Y_, n, k, S, lds);
-    if (!cholesky_lower(S, lds, S, lds, k)) return false;
+    if (!cholesky_lower(S, lds, S, lds, k, nullptr)) return false;
     const double ratio = diagonal_ratio(S, lds, k);
     if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
     for (int j = 0; j < k; ++j) u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
-    forward_substitute(S, lds, k, u_.data());
-    back_substitute_transposed(S, lds, k, u_.data());
+    forward_substitute(S, lds, k, u_.data(), nullptr);
+    back_substitute_transposed(S, lds, k, u_.data(), nullptr);
     const double u_scale = std::max(1.0, u_.head(k).cwiseAbs().maxCoeff());
     for (int j = equalities; j < k; ++j) {
       if (u_[j] < -tolerance_ * u_scale) return false;
@@ -518,7 +561,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       for (Eigen::Index i = 0; i < n; ++i) x_[i] += a * y[i];
     }
   }
-  back_substitute_transposed(L_.data(), L_.outerStride(), n, x_.data());
+  back_substitute_transposed(L_.data(), L_.outerStride(), n, x_.data(), l_end_.data());
   Side p;
   double violation = 0.0;
   if (most_violated(p, violation)) return false;
@@ -550,15 +593,17 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   tolerance_ = tolerance;
   iterations_ = 0;
   count_ = 0;
-  if (!cholesky_lower(q.H, L_)) return ActiveSetOutcome::kNotStrictlyConvex;
+  fast_path_ = false;
+  if (!cholesky_lower(q.H, L_, l_end_.data())) return ActiveSetOutcome::kNotStrictlyConvex;
   const double ratio = diagonal_ratio(L_.data(), L_.outerStride(), n_);
   if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
-  if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
+  fast_path_ = try_working_set(hot_start);
+  if (fast_path_) return ActiveSetOutcome::kSolved;
   count_ = 0;
   // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the
   // identity's leading zeros are skipped; Y_ is free once the fast path has failed).
   Y_.setIdentity();
-  solve_lower_columns(L_, Y_, n_);
+  solve_lower_columns(L_, l_end_.data(), Y_, n_);
   J_ = Y_.transpose();
   R_.setZero();
 

@@ -72,6 +72,9 @@ class DualActiveSet {
   void multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,
                    Eigen::VectorXd& dual_eq) const;
   int iterations() const { return iterations_; }
+  /// Whether the last solve was answered by its guessed working set's one factorization (the
+  /// fast path of a hot start), with no update of the working set.
+  bool took_fast_path() const { return fast_path_; }
   int working_set_size() const { return count_; }
   double objective() const { return objective_; }
   double primal_residual() const { return primal_residual_; }
@@ -103,6 +106,7 @@ class DualActiveSet {
   const QpProblem* q_ = nullptr;
   double tolerance_ = 1e-10;
   Eigen::MatrixXd L_;  // H = LLᵀ, lower triangle (the upper one is unused)
+  std::vector<int> l_end_;  // L_'s envelope: one past each column's last row that can be nonzero
   Eigen::MatrixXd J_, R_;
   Eigen::VectorXd x_, u_, d_, step_, r_, jtf_, v_, hx_, res_, gx_;
   Eigen::MatrixXd Y_, S_;  // the fast path's L⁻¹N and its Gram matrix
@@ -111,6 +115,7 @@ class DualActiveSet {
   std::vector<Side> active_, saved_;
   int count_ = 0, saved_count_ = 0;
   int iterations_ = 0;
+  bool fast_path_ = false;
   double objective_ = 0.0, primal_residual_ = 0.0, dual_residual_ = 0.0;
 };
 
