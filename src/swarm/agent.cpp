@@ -429,6 +429,9 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
         }
       }
     }
+    // With no crossing at the current delay the choice reads only the current delay's slots
+    // (below): the later delays are not searched.
+    if (d == 0 && !any_conflict) break;
   }
 
   // The choice: with no crossing at the current delay, back to the plan's altitude. Otherwise
