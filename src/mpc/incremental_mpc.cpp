@@ -302,7 +302,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   ds_ = VecX::Zero(ns_);
   dsn_ = VecX::Zero(ns_);
   y_ = VecX::Zero(ny_);
-  w_ = VecX::Zero(ns_);
+  W_ = MatX::Zero(ns_, np_);
+  known_terms_.assign(np_, nullptr);
   state_reach_.assign(ns_, 0);
   output_reach_.assign(ny_, 0);
   phi_reach_.assign(ny_, 0);
@@ -601,15 +602,16 @@ void IncrementalMpc::build_prediction() {
 const double* IncrementalMpc::known_term(int j) {
   // w_j = state offset + E_j·(forecast increment). The increment is usually zero after the first
   // step (a held measurement), and E·0 would add exact zeros: then w_j is the column of the
-  // offsets itself, read in place.
+  // offsets itself, read in place. The solution's simulation reads the same terms again.
   const IncrementalMpcData& d = data_;
   const double* increment = d.disturbance_delta.col(j).data();
   bool zero = true;
   for (int i = 0; i < nd_; ++i) zero = zero && increment[i] == 0.0;
-  if (zero) return d.state_offset.col(j).data();
-  w_.noalias() = d.state_offset.col(j);
-  w_.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
-  return w_.data();
+  if (zero) return known_terms_[j] = d.state_offset.col(j).data();
+  auto w = W_.col(j);
+  w.noalias() = d.state_offset.col(j);
+  w.noalias() += d.E[j].lazyProduct(d.disturbance_delta.col(j));
+  return known_terms_[j] = w.data();
 }
 
 void IncrementalMpc::forward_pass() {
@@ -1123,7 +1125,7 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   const double* y_prev = d.output.data();
   double cost = 0.0;
   for (int j = 0; j < np_; ++j) {
-    const double* w = known_term(j);
+    const double* w = known_terms_[j];  // as the forward pass of this solve found them
     const double* du = result_.moves.data() + j * nu_;
     // Row by row in scalars (the entries are listed by row): each value is used right where
     // it is computed, never reloaded as a vector from scalar stores (a store-forwarding stall).

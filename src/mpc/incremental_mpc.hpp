@@ -261,7 +261,8 @@ class IncrementalMpc {
   // incremental_mpc.cpp holds the clones.
   RIDGELINE_SIMD_CLONES void collect_plant_nonzeros();
   void list_b_nonzeros();  // after a change of some B_j (collect_plant_nonzeros)
-  const double* known_term(int j);  // w_j of eq. 7: n_s values, valid until the next call
+  // w_j of eq. 7 (n_s values), also kept in known_terms_[j] for the solution's simulation.
+  const double* known_term(int j);
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
   void write_hessian_block(int lo, int hi);
@@ -333,7 +334,11 @@ class IncrementalMpc {
   std::uint64_t history_valid_ = 0;  // rows whose blocks hold the last pass's values
   VecX Yfree_;             // Np·n_y
   VecX qdiag_;             // Np·n_y: diagonal of Q̄
-  VecX ds_, dsn_, y_, w_;  // n_s, n_s, n_y, n_s
+  VecX ds_, dsn_, y_;  // n_s, n_s, n_y
+  // The known terms w_j of the last forward pass: a column of state_offset, or of W_ where a
+  // forecast increment adds E_j·Δd_j (n_s × Np).
+  MatX W_;
+  std::vector<const double*> known_terms_;
 
   // Reach (bit c: input c) of each state and output component (collect_plant_nonzeros), and
   // the reaches Γ and Φ were last cleared for.

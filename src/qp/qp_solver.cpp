@@ -111,23 +111,27 @@ RIDGELINE_SIMD_CLONES bool symmetric_within(const double* h, Eigen::Index n, dou
   Mask4 bad = {};
   for (Eigen::Index jb = 0; jb < full; jb += 4) {
     for (Eigen::Index ib = jb; ib < full; ib += 4) {
-      Vec4 l[4], u[4];  // l: H(ib.., jb + c); u: H(jb.., ib + c)
-      for (int c = 0; c < 4; ++c) {
-        std::memcpy(&l[c], h + (jb + c) * n + ib, sizeof(Vec4));
-        std::memcpy(&u[c], h + (ib + c) * n + jb, sizeof(Vec4));
-      }
-      const Vec4 t0 = __builtin_shufflevector(u[0], u[1], 0, 4, 2, 6);
-      const Vec4 t1 = __builtin_shufflevector(u[0], u[1], 1, 5, 3, 7);
-      const Vec4 t2 = __builtin_shufflevector(u[2], u[3], 0, 4, 2, 6);
-      const Vec4 t3 = __builtin_shufflevector(u[2], u[3], 1, 5, 3, 7);
-      const Vec4 ut[4] = {__builtin_shufflevector(t0, t2, 0, 1, 4, 5),
-                          __builtin_shufflevector(t1, t3, 0, 1, 4, 5),
-                          __builtin_shufflevector(t0, t2, 2, 3, 6, 7),
-                          __builtin_shufflevector(t1, t3, 2, 3, 6, 7)};
-      for (int c = 0; c < 4; ++c) {
-        const Vec4 d = l[c] - ut[c];
-        bad |= (d > limit) | (d < -limit);
-      }
+      // l_c = H(ib.., jb + c) and u_c = H(jb.., ib + c), named (an array would go through the
+      // stack).
+      Vec4 l0, l1, l2, l3, u0, u1, u2, u3;
+      std::memcpy(&l0, h + jb * n + ib, sizeof l0);
+      std::memcpy(&l1, h + (jb + 1) * n + ib, sizeof l1);
+      std::memcpy(&l2, h + (jb + 2) * n + ib, sizeof l2);
+      std::memcpy(&l3, h + (jb + 3) * n + ib, sizeof l3);
+      std::memcpy(&u0, h + ib * n + jb, sizeof u0);
+      std::memcpy(&u1, h + (ib + 1) * n + jb, sizeof u1);
+      std::memcpy(&u2, h + (ib + 2) * n + jb, sizeof u2);
+      std::memcpy(&u3, h + (ib + 3) * n + jb, sizeof u3);
+      const Vec4 t0 = __builtin_shufflevector(u0, u1, 0, 4, 2, 6);
+      const Vec4 t1 = __builtin_shufflevector(u0, u1, 1, 5, 3, 7);
+      const Vec4 t2 = __builtin_shufflevector(u2, u3, 0, 4, 2, 6);
+      const Vec4 t3 = __builtin_shufflevector(u2, u3, 1, 5, 3, 7);
+      const Vec4 d0 = l0 - __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+      const Vec4 d1 = l1 - __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+      const Vec4 d2 = l2 - __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+      const Vec4 d3 = l3 - __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+      bad |= (d0 > limit) | (d0 < -limit) | (d1 > limit) | (d1 < -limit) | (d2 > limit) |
+             (d2 < -limit) | (d3 > limit) | (d3 < -limit);
     }
   }
   if ((bad[0] | bad[1] | bad[2] | bad[3]) != 0) return false;
