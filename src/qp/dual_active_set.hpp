@@ -25,7 +25,9 @@
 // once; (1) gives its minimizer; constraints with negative multipliers are dropped one at a time
 // (most negative first) until u ≥ 0, which is a valid dual-feasible start. On an MPC sequence
 // the working set changes little from one period to the next, so a solve is one factorization
-// of H, q rank-one updates and a few iterations.
+// of H, q rank-one updates and a few iterations. The factor of H stops each column at its
+// envelope (the last row that can be nonzero), so a block-diagonal H, such as an MPC's with
+// inputs no output couples and its slacks, costs its blocks (see cholesky_lower).
 //
 // All storage is sized by resize(); solve() allocates nothing.
 #pragma once
