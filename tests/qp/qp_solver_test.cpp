@@ -201,6 +201,26 @@ TEST(QpSolverTest, InputChecksSeeEveryEntry) {
         EXPECT_NE(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " " << i << " " << j;
       }
     }
+    for (int i = 0; i < n; ++i) {  // a NaN or an infinity anywhere in H, the diagonal too
+      for (int j = 0; j < n; ++j) {
+        for (const double v : {std::nan(""), kInfinity}) {
+          QpProblem bad = q;
+          bad.H(i, j) = v;
+          EXPECT_EQ(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " H " << i << j;
+        }
+      }
+    }
+  }
+  {  // entries so large that H(i, j) − H(j, i) overflows: rejected, not accepted as symmetric
+    QpProblem q;
+    const double big = std::numeric_limits<double>::max();
+    q.H = Eigen::Matrix4d::Identity();
+    q.H(2, 1) = big;
+    q.H(1, 2) = -big;
+    q.f = Eigen::Vector4d::Zero();
+    q.G.resize(0, 4);
+    q.A.resize(0, 4);
+    EXPECT_EQ(solver.solve(q).status, QpStatus::kInvalidInput);
   }
   for (int n = 1; n <= 40; ++n) {
     QpProblem q;
