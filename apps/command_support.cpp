@@ -1,6 +1,10 @@
 #include "apps/command_support.hpp"
 
+#include <fmt/format.h>
+
+#include <charconv>
 #include <iostream>
+#include <system_error>
 
 #include "apps/commands.hpp"
 #include "io/atomic_file.hpp"
@@ -26,6 +30,19 @@ void add_ddpg_model_option(CLI::App* command, std::string& path) {
       ->add_option("--ddpg-model", path,
                    "DDPG model of method ddpg (ridgeline train ddpg; default: the committed one)")
       ->capture_default_str();
+}
+
+CLI::Validator at_least(int minimum) {
+  return CLI::Validator(
+      [minimum](std::string& value) -> std::string {
+        long long v = 0;
+        const char* end = value.data() + value.size();
+        const auto [ptr, ec] = std::from_chars(value.data(), end, v);
+        if (ec != std::errc() || ptr != end) return "must be an integer, got " + value;
+        if (v < minimum) return fmt::format("must be at least {}, got {}", minimum, value);
+        return std::string();
+      },
+      fmt::format("INT >= {}", minimum));
 }
 
 std::shared_ptr<const learning::DdpgPolicy> load_ddpg_policy_if(bool needed,

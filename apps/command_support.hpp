@@ -26,6 +26,10 @@ std::optional<planning::GlobalPlan> plan_or_report(const io::LoadedScenario& loa
 std::string default_ddpg_model_path();
 /// Adds `--ddpg-model FILE` (default: default_ddpg_model_path()) to a subcommand.
 void add_ddpg_model_option(CLI::App* command, std::string& path);
+
+// An integer option's check: "must be at least N, got V" (CLI11's PositiveNumber would say
+// "Value 0 not in range 0 to 1.8e308").
+CLI::Validator at_least(int minimum);
 /// The DDPG policy at `path` when `needed`, else null; InputError naming the file when it is
 /// missing or not a model. Called before planning, so nothing is written on that error.
 std::shared_ptr<const learning::DdpgPolicy> load_ddpg_policy_if(bool needed,

@@ -69,7 +69,7 @@ void register_experiment_command(CLI::App& app) {
       "experiment", "The paper's comparison: every task x method x run with identical seeds");
   ex->add_option("--runs", args->runs, "Runs per task and method")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(at_least(1));
   ex->add_option("--threads", args->threads, "Worker threads (0: one per core)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);

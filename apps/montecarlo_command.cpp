@@ -31,7 +31,7 @@ void register_montecarlo_command(CLI::App& app) {
   CLI::App* mc = app.add_subcommand("montecarlo", "Fly many randomized variations of a mission");
   mc->add_option("--runs", args->runs, "Number of flights")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(at_least(1));
   mc->add_option("--threads", args->threads, "Worker threads (0: one per core)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);

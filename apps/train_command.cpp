@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
@@ -47,7 +48,7 @@ void register_train_command(CLI::App& app) {
       "ddpg", "DDPG agent of comparison method [8] (libtorch): train, or --evaluate a model");
   ddpg->add_option("--episodes", args->episodes, "Training or evaluation episodes")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(at_least(1));
   ddpg->add_option("--seed", args->seed, "Seed of the episodes, noise and initial weights")
       ->capture_default_str();
   ddpg->add_option("--out", args->out, "Model file to write (training)");

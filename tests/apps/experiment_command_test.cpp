@@ -11,6 +11,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "support/temp_dir.hpp"
 
@@ -74,6 +76,26 @@ TEST(ExperimentCommand, UnknownMethodOrTaskIsOneErrorAndWritesNothing) {
   EXPECT_FALSE(fs::exists(dir / "a" / "experiment.json"));
   EXPECT_FALSE(fs::exists(dir / "b" / "experiment.json"));
   EXPECT_FALSE(fs::exists(dir / "c"));
+  fs::remove_all(dir);
+}
+
+// A count below its minimum, or not an integer, is one error naming the option and the reason
+// (CLI11's own check said "Value 0 not in range 0 to 1.8e308"), and nothing is written.
+TEST(CountOptions, BelowTheMinimumNameTheOptionAndTheBound) {
+  const fs::path dir = ridgeline::testing_support::fresh_test_dir();
+  const fs::path out = dir / "out";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"montecarlo --quiet --runs 0", "--runs: must be at least 1, got 0"},
+      {"montecarlo --quiet --runs -2", "--runs: must be at least 1, got -2"},
+      {"montecarlo --quiet --runs two", "--runs: must be an integer, got two"},
+      {"experiment --quiet --runs 0", "--runs: must be at least 1, got 0"},
+      {"train ddpg --quiet --episodes 0", "--episodes: must be at least 1, got 0"}};
+  for (const auto& [command, expected] : cases) {
+    EXPECT_NE(run_cli(command + " --out " + out.string(), dir / "log"), 0) << command;
+    const std::string log = slurp(dir / "log");
+    EXPECT_NE(log.find(expected), std::string::npos) << command << "\n" << log;
+    EXPECT_FALSE(fs::exists(out)) << command;
+  }
   fs::remove_all(dir);
 }
 
