@@ -17,3 +17,26 @@
 #else
 #define RIDGELINE_SIMD_CLONES
 #endif
+
+namespace ridgeline {
+
+// Four doubles as one value (GCC's vector extension): one AVX2 register in the x86-64-v3
+// clones, two SSE2 registers in the baseline ones. Loaded and stored with memcpy (unaligned);
+// passed by reference only (a vector argument by value would change the baseline's ABI).
+typedef double Vec4 __attribute__((vector_size(32)));
+// A lane-wise comparison of two Vec4: −1 where true, 0 elsewhere.
+typedef long long Mask4 __attribute__((vector_size(32)));
+
+// Transposes the 4 × 4 block whose rows are r0..r3, in place (the rows become its columns).
+inline __attribute__((always_inline)) void transpose4(Vec4& r0, Vec4& r1, Vec4& r2, Vec4& r3) {
+  const Vec4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);  // r0[0] r1[0] r0[2] r1[2]
+  const Vec4 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+  const Vec4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
+  const Vec4 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+  r0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+  r1 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+  r2 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  r3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
+
+}  // namespace ridgeline

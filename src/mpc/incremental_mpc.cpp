@@ -26,10 +26,6 @@ void require(bool ok, const std::string& field, const std::string& reason) {
 
 bool has_shape(const MatX& m, int rows, int cols) { return m.rows() == rows && m.cols() == cols; }
 
-// Four doubles as one value (GCC's vector extension): one AVX2 register in the x86-64-v3
-// clones, two SSE2 registers in the baseline ones. Loaded and stored with memcpy (unaligned).
-typedef double Vec4 __attribute__((vector_size(32)));
-
 // dst[0..n) += a·src[0..n) for rows of different matrices.
 inline __attribute__((always_inline)) void axpy(double* __restrict dst, int n, double a,
                                                 const double* __restrict src) {
@@ -119,7 +115,6 @@ inline __attribute__((always_inline)) void combine_row(double* __restrict dst, i
 // collect_plant_nonzeros's clones: a call through the clones' dispatcher for 49 entries cost
 // about as much as the count.
 inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n) {
-  typedef long long Mask4 __attribute__((vector_size(32)));
   Mask4 counts = {};  // lane-wise: a comparison gives −1 where true
   const Vec4 zero = {};
   int i = 0;
@@ -148,19 +143,12 @@ inline __attribute__((always_inline)) void transpose(const double* __restrict sr
       std::memcpy(&r1, s + src_ld + j, sizeof r1);
       std::memcpy(&r2, s + 2 * src_ld + j, sizeof r2);
       std::memcpy(&r3, s + 3 * src_ld + j, sizeof r3);
-      const Vec4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);  // r0[0] r1[0] r0[2] r1[2]
-      const Vec4 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
-      const Vec4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
-      const Vec4 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
-      const Vec4 c0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);  // column j
-      const Vec4 c1 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
-      const Vec4 c2 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
-      const Vec4 c3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+      transpose4(r0, r1, r2, r3);  // now columns j … j + 3
       double* d = dst + j * dst_ld + i;
-      std::memcpy(d, &c0, sizeof c0);
-      std::memcpy(d + dst_ld, &c1, sizeof c1);
-      std::memcpy(d + 2 * dst_ld, &c2, sizeof c2);
-      std::memcpy(d + 3 * dst_ld, &c3, sizeof c3);
+      std::memcpy(d, &r0, sizeof r0);
+      std::memcpy(d + dst_ld, &r1, sizeof r1);
+      std::memcpy(d + 2 * dst_ld, &r2, sizeof r2);
+      std::memcpy(d + 3 * dst_ld, &r3, sizeof r3);
     }
     for (int j = full_cols; j < cols; ++j) {
       for (int k = 0; k < 4; ++k) dst[j * dst_ld + i + k] = s[k * src_ld + j];
@@ -459,9 +447,6 @@ void IncrementalMpc::collect_plant_nonzeros() {
   }
   a_row_begin_[static_cast<std::size_t>(np_) * ns_] = n;
   // C and the B_j are listed anew; a row that lists other entries than last time changed.
-  const auto same_entry = [](const Entry& a, const Entry& b) {
-    return a.row == b.row && a.col == b.col && a.value == b.value;
-  };
   int c_count = 0;
   c_changed_ = false;
   for (int k = 0; k < ny_; ++k) {
@@ -471,7 +456,7 @@ void IncrementalMpc::collect_plant_nonzeros() {
     for (int l = 0; l < ns_; ++l) {
       if (d.C(k, l) == 0.0) continue;
       const Entry entry{k, l, d.C(k, l)};
-      c_changed_ = c_changed_ || c_count >= c_count_ || !same_entry(c_entries_[c_count], entry);
+      c_changed_ = c_changed_ || c_count >= c_count_ || c_entries_[c_count] != entry;
       c_entries_[c_count++] = entry;
       sources |= std::uint64_t{1} << (l & 63);
     }
@@ -524,9 +509,6 @@ void IncrementalMpc::collect_plant_nonzeros() {
 
 void IncrementalMpc::list_b_nonzeros() {
   const IncrementalMpcData& d = data_;
-  const auto same_entry = [](const Entry& a, const Entry& b) {
-    return a.row == b.row && a.col == b.col && a.value == b.value;
-  };
   const std::size_t b_size = static_cast<std::size_t>(ns_) * nu_;
   std::fill(b_reach_.begin(), b_reach_.end(), 0);
   int nb = 0;
@@ -543,7 +525,7 @@ void IncrementalMpc::list_b_nonzeros() {
         const double v = B(k, c);
         if (v == 0.0) continue;
         const Entry entry{k, c, v};
-        changed = changed || nb >= old_end || !same_entry(b_entries_[nb], entry);
+        changed = changed || nb >= old_end || b_entries_[nb] != entry;
         b_entries_[nb++] = entry;
         b_reach_[k] |= std::uint64_t{1} << c;
       }
@@ -673,12 +655,12 @@ void IncrementalMpc::forward_pass() {
   std::copy_n(d.delta_state.data(), ns_, ds);
   y_ = d.output;
   const Eigen::Index ld = Gamma_.outerStride();
+  // Block b of Γ: rows b·n_s to (b + 1)·n_s.
+  const auto block = [&](int b) { return Gamma_.data() + static_cast<Eigen::Index>(b) * ns_ * ld; };
   for (int j = 0; j < np_; ++j) {
     const double* w = known_term(j);
-    // Γ_{j−1} is the block of rows j·n_s, Γ_j the next one.
     // Γ_{j−1}: its block (j), or the alternating block for the alternating rows (Γ_{−1} = 0,
     // block 0, for all at step 0); Γ_j's are the next ones.
-    const auto block = [&](int b) { return Gamma_.data() + static_cast<Eigen::Index>(b) * ns_ * ld; };
     const double* previous = block(j);
     const double* previous_alt = j == 0 ? block(0) : block(np_ + 1 + ((j - 1) & 1));
     double* now = block(j + 1);

@@ -288,6 +288,7 @@ class IncrementalMpc {
   struct Entry {
     int row, col;
     double value;
+    bool operator==(const Entry&) const = default;  // a listing that changed (value by ==)
   };
   // Listed by step, then row: row k of A_j is a_entries_[a_row_begin_[j·n_s + k],
   // a_row_begin_[j·n_s + k + 1]), and row k of C is c_entries_[c_row_begin_[k], …[k + 1]).

@@ -74,9 +74,6 @@ constexpr double kWarmStartShift = 1e-6;
 
 bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
 
-typedef double Vec4 __attribute__((vector_size(32)));
-typedef long long Mask4 __attribute__((vector_size(32)));  // a comparison: −1 where true
-
 // No entry infinite or NaN: x·0 is ±0 for a finite x and NaN otherwise, and a NaN, once
 // summed in, stays. Four vector sums of x·0 (one fused multiply-add each, AVX2 where the
 // CPU has it) read the entries at about one instruction per four; written with vector types,
@@ -122,14 +119,8 @@ RIDGELINE_SIMD_CLONES bool symmetric_within(const double* h, Eigen::Index n, dou
       std::memcpy(&u1, h + (ib + 1) * n + jb, sizeof u1);
       std::memcpy(&u2, h + (ib + 2) * n + jb, sizeof u2);
       std::memcpy(&u3, h + (ib + 3) * n + jb, sizeof u3);
-      const Vec4 t0 = __builtin_shufflevector(u0, u1, 0, 4, 2, 6);
-      const Vec4 t1 = __builtin_shufflevector(u0, u1, 1, 5, 3, 7);
-      const Vec4 t2 = __builtin_shufflevector(u2, u3, 0, 4, 2, 6);
-      const Vec4 t3 = __builtin_shufflevector(u2, u3, 1, 5, 3, 7);
-      const Vec4 d0 = l0 - __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
-      const Vec4 d1 = l1 - __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
-      const Vec4 d2 = l2 - __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
-      const Vec4 d3 = l3 - __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+      transpose4(u0, u1, u2, u3);  // now u_c = H(jb + c, ib..), the mirror of l_c
+      const Vec4 d0 = l0 - u0, d1 = l1 - u1, d2 = l2 - u2, d3 = l3 - u3;
       bad |= (d0 > limit) | (d0 < -limit) | (d1 > limit) | (d1 < -limit) | (d2 > limit) |
              (d2 < -limit) | (d3 > limit) | (d3 < -limit);
     }

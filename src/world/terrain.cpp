@@ -61,9 +61,6 @@ Vec2 peak_gradient(const Peak& p, double value, double x_m, double y_m) {
               -2.0 * value * (y_m - p.y_m) / (p.sigma_y_m * p.sigma_y_m));
 }
 
-typedef double Vec4 __attribute__((vector_size(32)));
-typedef long long Mask4 __attribute__((vector_size(32)));  // a comparison: −1 where true
-
 // The dominant peak: the highest score ln h_i − q_i (the lowest index on a tie), or 0 when no
 // score is above −∞ (a NaN position). The peaks are given as columns, with the reciprocals of
 // their widths (no division). The terrain is read at every predicted position of every MPC step
