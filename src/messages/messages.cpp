@@ -103,18 +103,6 @@ std::optional<std::string> check_message(const Message& message, int num_uavs,
 
 const char* message_type_name(const Message& message) { return std::visit(TypeName{}, message); }
 
-Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s) {
-  const std::vector<Vec3>& p = prediction.positions_m;
-  const int n = static_cast<int>(p.size());
-  if (n == 1) return p.front();
-  const double first_time_s = prediction.stamp_s + prediction.step_s;  // k = 1
-  const double f = (t_s - first_time_s) / prediction.step_s;
-  int i = static_cast<int>(std::floor(f));
-  i = std::clamp(i, 0, n - 2);  // outside the samples: the nearest segment, extrapolated
-  const double a = f - i;
-  return p[i] + a * (p[i + 1] - p[i]);
-}
-
 Vec3 expected_position(const PredictedTrajectory& prediction, double t_s) {
   const std::vector<Vec3>& p = prediction.positions_m;
   const int n = static_cast<int>(p.size());

@@ -6,6 +6,8 @@
 // through a Transport, so every field is a plain value. Units: SI (m, s, rad), positions ENU.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <variant>
@@ -37,8 +39,20 @@ RIDGELINE_WIRE_FIELDS(PredictedTrajectory, "PredictedTrajectory", uav, stamp_s, 
                       intent_start_s, intent_step_s, intent_m, intent_revision)
 
 /// The predicted position at time t (needs ≥ 1 position): linear between the samples, the
-/// nearest segment extended outside them.
-Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s);
+/// nearest segment extended outside them. Inline: a tracker reads each neighbour's at every
+/// step of its horizon, and a call each (its division and look-up in one chain) cost as much as
+/// the separation rows it feeds.
+inline Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s) {
+  const std::vector<Vec3>& p = prediction.positions_m;
+  const int n = static_cast<int>(p.size());
+  if (n == 1) return p.front();
+  const double first_time_s = prediction.stamp_s + prediction.step_s;  // k = 1
+  const double f = (t_s - first_time_s) / prediction.step_s;
+  int i = static_cast<int>(std::floor(f));
+  i = std::clamp(i, 0, n - 2);  // outside the samples: the nearest segment, extrapolated
+  const double a = f - i;
+  return p[i] + a * (p[i + 1] - p[i]);
+}
 
 /// Where the sender expects to be at t: its MPC prediction while t is inside it, then its
 /// intent (linear between samples), then the intent's last segment (or, without an intent,

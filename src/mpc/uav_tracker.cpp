@@ -129,6 +129,7 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   nominal_states_ = MatX::Zero(vehicle::kStateDim, np_);
   nominal_positions_ = MatX::Zero(3, np_);
   reference_points_.resize(np_ + 1);
+  neighbour_positions_.resize(np_);
   result_.predicted_positions_m = MatX::Zero(3, np_);
   result_.predicted_states = MatX::Zero(vehicle::kStateDim, np_);
   result_.prediction_step_s = options.prediction_step_s;
@@ -255,14 +256,14 @@ void UavTracker::set_limits(const vehicle::State& state) {
   const vehicle::VehicleParams& p = options_.vehicle;
   const double rates[3] = {options_.max_speed_cmd_rate_m_s2, options_.max_turn_cmd_rate_rad_s2,
                            options_.max_climb_cmd_rate_m_s2};
+  // The pitch limit must hold on the vehicle whatever its speed does while the climb command
+  // holds (measured: bounded by the nominal speed, a UAV slowing while it climbed away from a
+  // neighbour flew 30.2° for 0.2 s). It depends on the vehicle only.
+  const double max_climb = p.robust_max_climb_rate_m_s();
   for (int i = 0; i < nc_; ++i) {
     const double v_nominal = i == 0 ? state[kV] : nominal_states_(kV, i);
     const double speed = std::max(v_nominal, p.min_speed_m_s());
     const double max_turn = p.max_turn_rate_rad_s(speed);  // eq. 3
-    // The pitch limit must hold on the vehicle whatever its speed does while the climb
-    // command holds (measured: bounded by the nominal speed, a UAV slowing while it climbed
-    // away from a neighbour flew 30.2° for 0.2 s).
-    const double max_climb = p.robust_max_climb_rate_m_s();
     d.input_min(kSpeedCmd, i) = p.min_speed_m_s();  // eq. 2
     d.input_max(kSpeedCmd, i) = p.max_speed_m_s();
     d.input_min(kTurnRateCmd, i) = -max_turn;
@@ -353,8 +354,14 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
     const double separation = static_cast<std::size_t>(k) < env.neighbour_separation_m.size()
                                   ? env.neighbour_separation_m[static_cast<std::size_t>(k)]
                                   : limits_.separation_m;
+    // The neighbour's positions first, in a loop of their own: each is a chain (a division, the
+    // sample it selects, the interpolation) that the rows' own chains (a square root, the
+    // normal's divisions) would otherwise queue behind; apart, the positions overlap each other.
     for (int j = 0; j < np_; ++j) {
-      const Vec3 q = messages::predicted_position(nb, t_s + (j + 1) * dt);
+      neighbour_positions_[j] = messages::predicted_position(nb, t_s + (j + 1) * dt);
+    }
+    for (int j = 0; j < np_; ++j) {
+      const Vec3& q = neighbour_positions_[j];
       double dist = 0.0;
       const Vec3 n = normal(nominal_positions_.col(j), q, dist);
       if (dist - separation > activation) continue;

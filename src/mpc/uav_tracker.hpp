@@ -240,6 +240,7 @@ class UavTracker {
   MatX nominal_states_;                           // 7×Np: s̄_j at the start of prediction step j
   MatX nominal_positions_;                        // 3×Np: p̄ at t + (j+1)Δt_p
   std::vector<ReferencePoint> reference_points_;  // r(t + jΔt_p), j = 0..Np
+  std::vector<Vec3> neighbour_positions_;         // Np: one neighbour's at t + (j+1)Δt_p
 };
 
 }  // namespace ridgeline::mpc
