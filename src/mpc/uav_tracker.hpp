@@ -115,7 +115,8 @@ struct UavTrackerOptions {
   qp::QpSettings qp_settings{.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};
   /// The step's thread CPU time (step_cpu_time_us) is read on every this many steps, the
   /// others report NaN: the thread CPU clock is a system call (no vDSO), two of them about
-  /// 2 µs a step on a virtual machine, 5 % of a simulated flight. ≥ 1.
+  /// 1 µs a step on a virtual machine, 5 % of a simulated flight. 0: never (a caller that
+  /// times the step from outside, such as `bench mpc`). ≥ 0.
   int cpu_time_period_steps = 1;
 };
 

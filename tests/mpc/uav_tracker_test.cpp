@@ -458,22 +458,28 @@ TEST(UavTracker, PredictionAgreesWithNonlinearEulerRollout) {
 }
 
 // cpu_time_period_steps = 3 reads the CPU clock on steps 0, 3, 6, ... only: those report a
-// CPU time (≥ 0), the others NaN; the commands are those of a tracker timing every step (the
-// clock is not an input).
+// CPU time (≥ 0), the others NaN; 0 never reads it. The commands are those of a tracker timing
+// every step (the clock is not an input).
 TEST(UavTracker, CpuTimePeriodTimesEveryNthStepOnly) {
   const HelixReference ref = circle_150m();
   UavTrackerOptions every;
   UavTrackerOptions third;
   third.cpu_time_period_steps = 3;
+  UavTrackerOptions never;
+  never.cpu_time_period_steps = 0;
   UavTracker a(every, world::SafetyLimits{});
   UavTracker b(third, world::SafetyLimits{});
+  UavTracker c(never, world::SafetyLimits{});
   const State s = state_on(ref.at(0.0));
   const Vec3 wind(1.0, 0.0, 0.0);
   for (int k = 0; k < 10; ++k) {
     const double t = k * kControlPeriod;
     const UavTrackerResult& ra = a.step(t, s, wind, ref, TrackerEnvironment{});
     const UavTrackerResult& rb = b.step(t, s, wind, ref, TrackerEnvironment{});
+    const UavTrackerResult& rc = c.step(t, s, wind, ref, TrackerEnvironment{});
     EXPECT_GE(ra.step_cpu_time_us, 0.0);
+    EXPECT_TRUE(std::isnan(rc.step_cpu_time_us)) << k;
+    EXPECT_EQ(ra.command, rc.command) << k;
     if (k % 3 == 0) {
       EXPECT_GE(rb.step_cpu_time_us, 0.0) << k;
     } else {
@@ -481,7 +487,7 @@ TEST(UavTracker, CpuTimePeriodTimesEveryNthStepOnly) {
     }
     EXPECT_EQ(ra.command, rb.command) << k;
   }
-  third.cpu_time_period_steps = 0;
+  third.cpu_time_period_steps = -1;
   try {
     UavTracker bad(third, world::SafetyLimits{});
     FAIL() << "expected InputError";
