@@ -32,14 +32,20 @@ void add_ddpg_model_option(CLI::App* command, std::string& path) {
       ->capture_default_str();
 }
 
+std::optional<long long> whole_integer(std::string_view text) {
+  long long value = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, error] = std::from_chars(text.data(), end, value);
+  if (error != std::errc() || ptr != end) return std::nullopt;
+  return value;
+}
+
 CLI::Validator at_least(int minimum) {
   return CLI::Validator(
       [minimum](std::string& value) -> std::string {
-        long long v = 0;
-        const char* end = value.data() + value.size();
-        const auto [ptr, ec] = std::from_chars(value.data(), end, v);
-        if (ec != std::errc() || ptr != end) return "must be an integer, got " + value;
-        if (v < minimum) return fmt::format("must be at least {}, got {}", minimum, value);
+        const std::optional<long long> v = whole_integer(value);
+        if (!v) return "must be an integer, got " + value;
+        if (*v < minimum) return fmt::format("must be at least {}, got {}", minimum, value);
         return std::string();
       },
       fmt::format("INT >= {}", minimum));

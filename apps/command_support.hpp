@@ -27,6 +27,8 @@ std::string default_ddpg_model_path();
 /// Adds `--ddpg-model FILE` (default: default_ddpg_model_path()) to a subcommand.
 void add_ddpg_model_option(CLI::App* command, std::string& path);
 
+/// The whole of `text` as a decimal integer, or nothing ("nan", "1.5", "3x", out of range).
+std::optional<long long> whole_integer(std::string_view text);
 // An integer option's check: "must be at least N, got V" (CLI11's PositiveNumber would say
 // "Value 0 not in range 0 to 1.8e308").
 CLI::Validator at_least(int minimum);

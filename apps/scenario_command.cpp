@@ -4,11 +4,11 @@
 // scenario loader before it is printed or written; bad input is one error naming the option.
 #include <fmt/format.h>
 
-#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
 
+#include "apps/command_support.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "io/atomic_file.hpp"
@@ -32,12 +32,10 @@ struct TeamArgs {
 // The options are read as text so that "nan", "1.5" or "-3" is one error naming the option
 // (exit 2), not CLI11's conversion error.
 long long parse_integer(const std::string& option, const std::string& text, long long min) {
-  long long value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size())
-    throw InputError(option, fmt::format("must be an integer, got '{}'", text));
-  if (value < min) throw InputError(option, fmt::format("must be >= {}, got {}", min, value));
-  return value;
+  const std::optional<long long> value = whole_integer(text);
+  if (!value) throw InputError(option, fmt::format("must be an integer, got '{}'", text));
+  if (*value < min) throw InputError(option, fmt::format("must be >= {}, got {}", min, *value));
+  return *value;
 }
 
 void write_team_scenario(const TeamArgs& args, const std::string& how_made) {

@@ -392,7 +392,8 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   // tenth of a step): read outside the wall-clock window, so that the step's wall time and
   // its parts are the step's own. The CPU time spans both readings' ends.
   const int period = options_.cpu_time_period_steps;
-  const bool time_cpu = period > 0 && steps_++ % period == 0;
+  const bool time_cpu = period > 0 && steps_ % period == 0;
+  ++steps_;
   const double cpu_start_s = time_cpu ? thread_cpu_time_s() : 0.0;
   const auto start = Clock::now();
   const vehicle::VehicleParams& p = options_.vehicle;
