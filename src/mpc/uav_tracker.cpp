@@ -432,12 +432,10 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
 
   // 2–4. Nominal trajectory, Jacobians, wind feed-forward, reference.
   build_nominal(t_s, state, reference);
-  for (int j = 0; j < np_; ++j) {
-    // B_j, E_j and all but four entries of A_j do not depend on the state (eq. 4): the
-    // constructor wrote them once.
-    vehicle::update_discrete_state_jacobian(nominal_states_.col(j), dt, d.A[j]);
-    d.reference.col(j) = reference_points_[j + 1].position_m;
-  }
+  // B_j, E_j and all but four entries of A_j do not depend on the state (eq. 4): the
+  // constructor wrote them once.
+  vehicle::update_discrete_state_jacobians(nominal_states_, dt, d.A);
+  for (int j = 0; j < np_; ++j) d.reference.col(j) = reference_points_[j + 1].position_m;
   d.disturbance_delta.setZero();
   d.disturbance_delta.col(0) = delta_wind;
   d.state_offset.setZero();

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/sin_cos.hpp"
+
 namespace ridgeline::vehicle {
 
 double VehicleParams::max_turn_rate_rad_s(double speed_m_s) const {
@@ -43,25 +45,24 @@ State rk4_step(const State& s, const Input& u, const Vec3& wind_m_s, const Vehic
 
 namespace {
 
-// The entries of ∂f/∂s that depend on the state (x and y against heading and speed), each
-// times `scale`: 1 for A itself, Δt for A_d = I + Δt·A, whose entries there are 0 + Δt·a, i.e.
-// Δt·a exactly. The one place these derivatives are written.
+// The entries of ∂f/∂s that depend on the state (x and y against heading and speed), from the
+// heading's cosine and sine and the speed, each times `scale`: 1 for A itself, Δt for
+// A_d = I + Δt·A, whose entries there are 0 + Δt·a, i.e. Δt·a exactly. The one place these
+// derivatives are written.
 template <typename Matrix>
-void write_state_dependent_entries(const State& s, double scale, Matrix& A) {
-  const double c = std::cos(s[kPsi]);
-  const double sn = std::sin(s[kPsi]);
-  const double v = s[kV];
-  A(kX, kPsi) = scale * (-v * sn);
-  A(kX, kV) = scale * c;
-  A(kY, kPsi) = scale * (v * c);
-  A(kY, kV) = scale * sn;
+void write_state_dependent_entries(double cos_psi, double sin_psi, double v, double scale,
+                                   Matrix& A) {
+  A(kX, kPsi) = scale * (-v * sin_psi);
+  A(kX, kV) = scale * cos_psi;
+  A(kY, kPsi) = scale * (v * cos_psi);
+  A(kY, kV) = scale * sin_psi;
 }
 
 }  // namespace
 
 StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p) {
   StateMatrix A = StateMatrix::Zero();
-  write_state_dependent_entries(s, 1.0, A);
+  write_state_dependent_entries(std::cos(s[kPsi]), std::sin(s[kPsi]), s[kV], 1.0, A);
   A(kZ, kW) = 1.0;
   A(kPsi, kOmega) = 1.0;
   A(kV, kV) = -1.0 / p.tau_v_s;
@@ -90,8 +91,20 @@ StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, doub
   return StateMatrix::Identity() + dt_s * continuous_state_jacobian(s, p);
 }
 
-void update_discrete_state_jacobian(const State& s, double dt_s, Eigen::Ref<Eigen::MatrixXd> A_d) {
-  write_state_dependent_entries(s, dt_s, A_d);
+void update_discrete_state_jacobians(const Eigen::Ref<const Eigen::MatrixXd>& states,
+                                     double dt_s, std::span<Eigen::MatrixXd> A_d) {
+  constexpr int kBatch = 16;  // headings a call of sin_cos (on the stack)
+  double psi[kBatch], sin_psi[kBatch], cos_psi[kBatch];
+  const int n = static_cast<int>(states.cols());
+  for (int begin = 0; begin < n; begin += kBatch) {
+    const int count = std::min(kBatch, n - begin);
+    for (int k = 0; k < count; ++k) psi[k] = states(kPsi, begin + k);
+    sin_cos(psi, sin_psi, cos_psi, count);
+    for (int k = 0; k < count; ++k) {
+      write_state_dependent_entries(cos_psi[k], sin_psi[k], states(kV, begin + k), dt_s,
+                                    A_d[static_cast<std::size_t>(begin + k)]);
+    }
+  }
 }
 
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s) {

@@ -13,6 +13,7 @@
 // with RK4, possibly with different time constants (model mismatch is deliberate).
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -82,11 +83,15 @@ StateMatrix continuous_state_jacobian(const State& s, const VehicleParams& p);
 Jacobians discrete_jacobians(const State& s, const VehicleParams& p, double dt_s);
 /// A_d = I + Δt·A alone.
 StateMatrix discrete_state_jacobian(const State& s, const VehicleParams& p, double dt_s);
-/// Rewrites in A_d, a discrete_state_jacobian of the same parameters and step at any state,
-/// the four entries that depend on the state (x and y against speed and heading), so that it
-/// equals discrete_state_jacobian(s, p, dt_s) exactly. The MPC's step calls it 40 times: it
-/// skips building and copying the constant 45 entries and the matrix's temporaries.
-void update_discrete_state_jacobian(const State& s, double dt_s, Eigen::Ref<Eigen::MatrixXd> A_d);
+/// For each column j of `states` (n_s × N, N ≤ A_d.size()): rewrites in A_d[j], a
+/// discrete_state_jacobian of the same parameters and step at any state, the four entries that
+/// depend on the state (x and y against speed and heading), so that it equals
+/// discrete_state_jacobian(states.col(j), p, dt_s). The MPC's step calls it once for its 40
+/// prediction steps: it skips building and copying the constant 45 entries of each, and takes
+/// the headings' sines and cosines together (core/sin_cos.hpp: four a call where the CPU has
+/// AVX2, within a few ulp of libm's, so those entries equal the full Jacobian's to round-off).
+void update_discrete_state_jacobians(const Eigen::Ref<const Eigen::MatrixXd>& states,
+                                     double dt_s, std::span<Eigen::MatrixXd> A_d);
 
 /// Clamps a command into the maneuver limits at state s: the speed band, |ω_c| ≤ v/R_min
 /// (with v the current horizontal speed, floored at the minimum speed), and the climb

@@ -2,13 +2,12 @@
 
 #include <fmt/format.h>
 
-#include <immintrin.h>
-
 #include <algorithm>
 #include <cmath>
 #include <string>
 
 #include "core/error.hpp"
+#include "core/sin_cos.hpp"
 
 namespace ridgeline::world {
 namespace {
@@ -36,39 +35,10 @@ void require_finite_positive(double value, std::string_view prefix, std::string_
   }
 }
 
-// glibc's libmvec: sine and cosine of four doubles in AVX2 registers, within 4 ulp of libm's.
-extern "C" __m256d _ZGVdN4v_sin(__m256d x);
-extern "C" __m256d _ZGVdN4v_cos(__m256d x);
-
-// Gust modes evaluated a batch at a time (a multiple of 4, on the stack).
+// Gust modes evaluated a batch at a time (on the stack). The wind field is evaluated at every
+// 5 ms truth step of every UAV (64 modes by default), where libm's scalar sincos was a tenth of
+// a simulated flight's instructions: core/sin_cos.hpp takes four angles a call.
 constexpr int kModeBatch = 64;
-
-__attribute__((target("avx2"))) void sin_cos_avx2(const double* x, double* s, double* c, int n) {
-  for (int i = 0; i < n; i += 4) {  // n is a multiple of 4
-    const __m256d v = _mm256_loadu_pd(x + i);
-    _mm256_storeu_pd(s + i, _ZGVdN4v_sin(v));
-    _mm256_storeu_pd(c + i, _ZGVdN4v_cos(v));
-  }
-}
-
-// s = sin x, c = cos x for x[0..n), n ≤ kModeBatch; x is padded to a multiple of 4 here. The
-// wind field is evaluated at every 5 ms truth step of every UAV (64 modes by default), where
-// libm's scalar sincos was a tenth of a simulated flight's instructions; libmvec's AVX2
-// versions take four angles a call. The two agree to a few ulp, so the field differs between
-// machines with and without AVX2 only by round-off.
-void sin_cos(double* x, double* s, double* c, int n) {
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2) {
-    const int padded = (n + 3) / 4 * 4;
-    std::fill(x + n, x + padded, 0.0);
-    sin_cos_avx2(x, s, c, padded);
-    return;
-  }
-  for (int i = 0; i < n; ++i) {
-    s[i] = std::sin(x[i]);
-    c[i] = std::cos(x[i]);
-  }
-}
 
 }  // namespace
 

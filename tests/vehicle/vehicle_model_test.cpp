@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace ridgeline::vehicle {
 namespace {
@@ -162,17 +163,39 @@ TEST(VehicleModel, DiscreteInputAndWindJacobiansDoNotDependOnTheState) {
   }
 }
 
-// The tracker writes A_d once and then only its state-dependent entries each step: the result
-// must be exactly the full Jacobian at the new state, whatever state A_d was built at (an
-// entry missed would keep the old state's value; a heading of 0 makes sin ψ an exact zero).
-TEST(VehicleModel, UpdatedDiscreteStateJacobianEqualsTheFullOne) {
+// The tracker writes A_d once and then only its state-dependent entries each step: each must
+// be the full Jacobian at its new state, whatever state A_d was built at (an entry missed would
+// keep the old state's value; a heading of 0 makes sin ψ an exact zero). The constant entries
+// are equal exactly; the four from the heading's sine and cosine, taken four at a time, to a few
+// ulp. 37 states: two full batches of sines and cosines and a tail of five, headings over many
+// turns.
+TEST(VehicleModel, UpdatedDiscreteStateJacobiansEqualTheFullOnes) {
   const VehicleParams p = default_params();
-  Eigen::MatrixXd A = discrete_state_jacobian(make_state(0.7, 9.0, 0.1, 0.2), p, 0.1);
-  for (const State& s : {make_state(2.1, 11.0, -0.2, 0.8), make_state(-3.0, 7.5, 0.4, -1.9),
-                         make_state(0.0, 12.0, 0.0, 0.0)}) {
-    update_discrete_state_jacobian(s, 0.1, A);
-    EXPECT_EQ(A, Eigen::MatrixXd(discrete_state_jacobian(s, p, 0.1)));
+  constexpr int kCount = 37;
+  Eigen::MatrixXd states(kStateDim, kCount);
+  for (int j = 0; j < kCount; ++j) {
+    const double psi = j == 0 ? 0.0 : -40.0 + 2.3 * j + 0.01 * j * j;
+    states.col(j) = make_state(psi, 5.0 + 0.27 * j, 0.1 - 0.01 * j, 0.3 * std::sin(j));
   }
+  const Eigen::MatrixXd built = discrete_state_jacobian(make_state(0.7, 9.0, 0.1, 0.2), p, 0.1);
+  std::vector<Eigen::MatrixXd> A(kCount + 1, built);  // one more than the states: untouched
+  update_discrete_state_jacobians(states, 0.1, A);
+  for (int j = 0; j < kCount; ++j) {
+    const Eigen::MatrixXd full = discrete_state_jacobian(states.col(j), p, 0.1);
+    for (int r = 0; r < kStateDim; ++r) {
+      for (int c = 0; c < kStateDim; ++c) {
+        const bool from_heading = (r == kX || r == kY) && (c == kPsi || c == kV);
+        if (from_heading) {
+          EXPECT_NEAR(A[j](r, c), full(r, c), 1e-15 * std::max(1.0, std::abs(full(r, c))))
+              << "state " << j << " entry (" << r << ", " << c << ")";
+        } else {
+          EXPECT_EQ(A[j](r, c), full(r, c)) << "state " << j << " entry (" << r << ", " << c << ")";
+        }
+      }
+    }
+  }
+  EXPECT_EQ(A[kCount], built);
+  EXPECT_EQ(A[0](kY, kV), 0.0);  // sin 0, exactly
 }
 
 TEST(VehicleModel, ClampRespectsSpeedTurnClimbAndPitchLimits) {
