@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "core/sin_cos.hpp"
 
 namespace ridgeline::mpc {
 
@@ -98,13 +99,14 @@ SampledReference SampledReference::from_positions(const std::vector<double>& tim
   return SampledReference(times_s, std::move(pts));
 }
 
-ReferencePoint SampledReference::at(double t_s) const {
-  if (t_s <= times_s_.front()) return extrapolate(points_.front(), t_s - times_s_.front());
-  if (t_s >= times_s_.back()) return extrapolate(points_.back(), t_s - times_s_.back());
-  // The sample i with times[i] ≤ t < times[i + 1] (times increase strictly; front < t < back
-  // here). Plans are sampled at about even steps, so the guess from the mean spacing is right or
-  // a step off; a few steps of walking confirm it, and a binary search takes over when they do
-  // not (the tracker asks 41 times a step, and the search's unpredictable branches showed).
+void ReferenceTrajectory::sample(double t0_s, double step_s, std::span<ReferencePoint> out) const {
+  for (std::size_t j = 0; j < out.size(); ++j) out[j] = at(t0_s + static_cast<double>(j) * step_s);
+}
+
+std::size_t SampledReference::segment(double t_s) const {
+  // Plans are sampled at about even steps, so the guess from the mean spacing is right or a
+  // step off; a few steps of walking confirm it, and a binary search takes over when they do
+  // not (the search's unpredictable branches showed in the tracker's step).
   const std::size_t last = times_s_.size() - 1;
   const double where = (t_s - times_s_.front()) / (times_s_.back() - times_s_.front());
   std::size_t i = std::min(static_cast<std::size_t>(where * static_cast<double>(last)), last - 1);
@@ -114,6 +116,10 @@ ReferencePoint SampledReference::at(double t_s) const {
     const auto it = std::upper_bound(times_s_.begin(), times_s_.end(), t_s);
     i = static_cast<std::size_t>(it - times_s_.begin()) - 1;
   }
+  return i;
+}
+
+ReferencePoint SampledReference::interpolate(std::size_t i, double t_s) const {
   const double a = (t_s - times_s_[i]) / (times_s_[i + 1] - times_s_[i]);
   const ReferencePoint& p = points_[i];
   const ReferencePoint& q = points_[i + 1];
@@ -124,6 +130,46 @@ ReferencePoint SampledReference::at(double t_s) const {
   r.turn_rate_rad_s = (1.0 - a) * p.turn_rate_rad_s + a * q.turn_rate_rad_s;
   r.climb_rate_m_s = (1.0 - a) * p.climb_rate_m_s + a * q.climb_rate_m_s;
   return r;
+}
+
+ReferencePoint SampledReference::at(double t_s) const {
+  if (t_s <= times_s_.front()) return extrapolate(points_.front(), t_s - times_s_.front());
+  if (t_s >= times_s_.back()) return extrapolate(points_.back(), t_s - times_s_.back());
+  return interpolate(segment(t_s), t_s);  // front < t < back
+}
+
+void SampledReference::at_increasing(std::span<const double> times_s,
+                                     std::span<ReferencePoint> out) const {
+  const std::size_t n = std::min(times_s.size(), out.size());
+  std::size_t i = 0;
+  bool walking = false;  // i is the segment of an earlier time, at or before this one's
+  for (std::size_t j = 0; j < n; ++j) {
+    const double t = times_s[j];
+    if (t <= times_s_.front()) {
+      out[j] = extrapolate(points_.front(), t - times_s_.front());
+    } else if (t >= times_s_.back()) {
+      out[j] = extrapolate(points_.back(), t - times_s_.back());
+    } else {
+      if (walking && times_s_[i] <= t) {
+        while (times_s_[i + 1] <= t) ++i;  // stops before the last sample: t < back
+      } else {
+        i = segment(t);
+        walking = true;
+      }
+      out[j] = interpolate(i, t);
+    }
+  }
+}
+
+void SampledReference::sample(double t0_s, double step_s, std::span<ReferencePoint> out) const {
+  constexpr std::size_t kBatch = 16;  // times a call of at_increasing (on the stack)
+  double times[kBatch];
+  for (std::size_t begin = 0; begin < out.size(); begin += kBatch) {
+    const std::size_t count = std::min(kBatch, out.size() - begin);
+    for (std::size_t k = 0; k < count; ++k)
+      times[k] = t0_s + static_cast<double>(begin + k) * step_s;
+    at_increasing(std::span<const double>(times, count), out.subspan(begin, count));
+  }
 }
 
 HelixReference::HelixReference(const Config& config) : c_(config) {
@@ -139,19 +185,44 @@ HelixReference::HelixReference(const Config& config) : c_(config) {
   }
 }
 
-ReferencePoint HelixReference::at(double t_s) const {
+double HelixReference::omega_rad_s() const {
   const double sign = c_.turn_left ? 1.0 : -1.0;
-  const double omega = sign * c_.speed_m_s / c_.radius_m;
-  const double dt = t_s - c_.t0_s;
-  const double phi = c_.phase0_rad + omega * dt;
+  return sign * c_.speed_m_s / c_.radius_m;
+}
+
+ReferencePoint HelixReference::point(double dt_s, double phi_rad, double cos_phi,
+                                     double sin_phi) const {
+  const double sign = c_.turn_left ? 1.0 : -1.0;
   ReferencePoint r;
-  r.position_m = c_.centre_m + Vec3(c_.radius_m * std::cos(phi), c_.radius_m * std::sin(phi),
-                                    c_.climb_rate_m_s * dt);
-  r.heading_rad = phi + sign * 0.5 * kPi;
+  r.position_m = c_.centre_m + Vec3(c_.radius_m * cos_phi, c_.radius_m * sin_phi,
+                                    c_.climb_rate_m_s * dt_s);
+  r.heading_rad = phi_rad + sign * 0.5 * kPi;
   r.speed_m_s = c_.speed_m_s;
-  r.turn_rate_rad_s = omega;
+  r.turn_rate_rad_s = omega_rad_s();
   r.climb_rate_m_s = c_.climb_rate_m_s;
   return r;
+}
+
+ReferencePoint HelixReference::at(double t_s) const {
+  const double dt = t_s - c_.t0_s;
+  const double phi = c_.phase0_rad + omega_rad_s() * dt;
+  return point(dt, phi, std::cos(phi), std::sin(phi));
+}
+
+void HelixReference::sample(double t0_s, double step_s, std::span<ReferencePoint> out) const {
+  constexpr std::size_t kBatch = 16;  // angles a call of sin_cos (on the stack)
+  double dt[kBatch], phi[kBatch], sin_phi[kBatch], cos_phi[kBatch];
+  const double omega = omega_rad_s();
+  for (std::size_t begin = 0; begin < out.size(); begin += kBatch) {
+    const std::size_t count = std::min(kBatch, out.size() - begin);
+    for (std::size_t k = 0; k < count; ++k) {
+      dt[k] = (t0_s + static_cast<double>(begin + k) * step_s) - c_.t0_s;
+      phi[k] = c_.phase0_rad + omega * dt[k];
+    }
+    sin_cos(phi, sin_phi, cos_phi, static_cast<int>(count));
+    for (std::size_t k = 0; k < count; ++k)
+      out[begin + k] = point(dt[k], phi[k], cos_phi[k], sin_phi[k]);
+  }
 }
 
 }  // namespace ridgeline::mpc

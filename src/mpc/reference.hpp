@@ -8,6 +8,8 @@
 // them relative to their own state.
 #pragma once
 
+#include <cstddef>
+#include <span>
 #include <vector>
 
 #include "core/types.hpp"
@@ -23,6 +25,11 @@ class ReferenceTrajectory {
  public:
   virtual ~ReferenceTrajectory() = default;
   virtual ReferencePoint at(double t_s) const = 0;
+  /// out[j] = at(t0_s + j·step_s) for every j, step_s ≥ 0: the tracker's Np + 1 samples of a
+  /// step. An implementation may take them together (a sampled reference walks its samples
+  /// forward instead of searching for each, a helix takes its sines and cosines four at a
+  /// time); each says whether its samples equal at()'s bit for bit. This one asks at().
+  virtual void sample(double t0_s, double step_s, std::span<ReferencePoint> out) const;
 };
 
 /// Piecewise-linear interpolation of samples (t_i, r_i); headings are interpolated along the
@@ -42,10 +49,20 @@ class SampledReference : public ReferenceTrajectory {
                                          const std::vector<Vec3>& positions_m);
 
   ReferencePoint at(double t_s) const override;
+  /// Equal to at() bit for bit.
+  void sample(double t0_s, double step_s, std::span<ReferencePoint> out) const override;
+  /// out[j] = at(times_s[j]) bit for bit, for times that increase (as a delayed plan's times
+  /// do): each look-up walks on from the one before. Times out of order are searched for.
+  void at_increasing(std::span<const double> times_s, std::span<ReferencePoint> out) const;
   double start_time_s() const { return times_s_.front(); }
   double end_time_s() const { return times_s_.back(); }
 
  private:
+  /// The sample i with times[i] ≤ t < times[i + 1], for front < t < back.
+  std::size_t segment(double t_s) const;
+  /// r(t) between samples i and i + 1.
+  ReferencePoint interpolate(std::size_t i, double t_s) const;
+
   std::vector<double> times_s_;
   std::vector<ReferencePoint> points_;
 };
@@ -68,8 +85,14 @@ class HelixReference : public ReferenceTrajectory {
   /// Throws ridgeline::InputError for a non-positive radius or speed, or non-finite values.
   explicit HelixReference(const Config& config);
   ReferencePoint at(double t_s) const override;
+  /// Equal to at() to round-off: the sines and cosines are core/sin_cos.hpp's (a few ulp).
+  void sample(double t0_s, double step_s, std::span<ReferencePoint> out) const override;
 
  private:
+  /// The point at t0 + dt, position angle φ (cos φ, sin φ given).
+  ReferencePoint point(double dt_s, double phi_rad, double cos_phi, double sin_phi) const;
+  double omega_rad_s() const;
+
   Config c_;
 };
 

@@ -208,7 +208,7 @@ bool UavTracker::increment_from_history(double t_s, const vehicle::State& state,
 void UavTracker::build_nominal(double t_s, const vehicle::State& state,
                                const ReferenceTrajectory& ref) {
   const double dt = options_.prediction_step_s;
-  for (int j = 0; j <= np_; ++j) reference_points_[j] = ref.at(t_s + j * dt);
+  ref.sample(t_s, dt, reference_points_);  // r(t + j·dt), j = 0..Np
 
   // Previous prediction: column i at previous_first_time_s_ + i·dt. Returns false when the
   // time lies beyond its end by more than one step (the reference is used there instead).

@@ -17,16 +17,29 @@ double AgentReference::delay_at(double t_s) const {
   return std::min(delay_target_s_, delay_from_s_ + delay_rate_ * (t_s - delay_since_s_));
 }
 
-mpc::ReferencePoint AgentReference::plan_at(double t_s) const {
-  const double delay = delay_at(t_s);
-  mpc::ReferencePoint p = plan_->at(t_s - delay);
-  if (delay < delay_target_s_ && t_s >= delay_since_s_) {
+void AgentReference::slow_down(double t_s, double delay_s, mpc::ReferencePoint& p) const {
+  if (delay_s < delay_target_s_ && t_s >= delay_since_s_) {
     // d/dt r_plan(t − δ(t)) = (1 − δ̇)·ṙ_plan: the same path, flown slower.
     const double along = 1.0 - delay_rate_;
     p.speed_m_s *= along;
     p.turn_rate_rad_s *= along;
     p.climb_rate_m_s *= along;
   }
+}
+
+void AgentReference::raise_to_level(double t_s, mpc::ReferencePoint& p) const {
+  if (level_target_m_ != 0.0 || level_from_m_ != 0.0) {
+    const double level = level_at(t_s);
+    p.position_m.z() += level;
+    if (level != level_target_m_ && t_s >= level_since_s_)
+      p.climb_rate_m_s += level_target_m_ > level ? level_rate_m_s_ : -level_rate_m_s_;
+  }
+}
+
+mpc::ReferencePoint AgentReference::plan_at(double t_s) const {
+  const double delay = delay_at(t_s);
+  mpc::ReferencePoint p = plan_->at(t_s - delay);
+  slow_down(t_s, delay, p);
   return p;
 }
 
@@ -43,13 +56,37 @@ mpc::ReferencePoint AgentReference::at(double t_s) const {
   mpc::ReferencePoint p = detour_ && t_s >= detour_->start_time_s() && t_s <= detour_->end_time_s()
                               ? detour_->at(t_s)
                               : plan_at(t_s);
-  if (level_target_m_ != 0.0 || level_from_m_ != 0.0) {
-    const double level = level_at(t_s);
-    p.position_m.z() += level;
-    if (level != level_target_m_ && t_s >= level_since_s_)
-      p.climb_rate_m_s += level_target_m_ > level ? level_rate_m_s_ : -level_rate_m_s_;
-  }
+  raise_to_level(t_s, p);
   return p;
+}
+
+void AgentReference::sample(double t0_s, double step_s, std::span<mpc::ReferencePoint> out) const {
+  if (out.empty()) return;
+  const double last_s = t0_s + static_cast<double>(out.size() - 1) * step_s;
+  if (!(step_s >= 0.0) ||
+      (detour_ && last_s >= detour_->start_time_s() && t0_s <= detour_->end_time_s())) {
+    ReferenceTrajectory::sample(t0_s, step_s, out);  // a detour within the samples' times
+    return;
+  }
+  // The plan alone: its times t − δ(t) increase (δ grows at a rate below 1), so its look-ups
+  // walk on from one another (SampledReference::at_increasing), each equal to plan_->at().
+  constexpr std::size_t kBatch = 16;  // samples a call (on the stack)
+  double delay[kBatch], plan_time[kBatch];
+  for (std::size_t begin = 0; begin < out.size(); begin += kBatch) {
+    const std::size_t count = std::min(kBatch, out.size() - begin);
+    for (std::size_t k = 0; k < count; ++k) {
+      const double t = t0_s + static_cast<double>(begin + k) * step_s;
+      delay[k] = delay_at(t);
+      plan_time[k] = t - delay[k];
+    }
+    const std::span<mpc::ReferencePoint> chunk = out.subspan(begin, count);
+    plan_->at_increasing(std::span<const double>(plan_time, count), chunk);
+    for (std::size_t k = 0; k < count; ++k) {
+      const double t = t0_s + static_cast<double>(begin + k) * step_s;
+      slow_down(t, delay[k], chunk[k]);
+      raise_to_level(t, chunk[k]);
+    }
+  }
 }
 
 void AgentReference::set_level(double t_s, double target_m, double rate_m_s) {

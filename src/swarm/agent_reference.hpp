@@ -34,6 +34,9 @@ class AgentReference : public mpc::ReferenceTrajectory {
   explicit AgentReference(std::shared_ptr<const mpc::SampledReference> plan);
 
   mpc::ReferencePoint at(double t_s) const override;
+  /// Equal to at() bit for bit; the plan's look-ups walk on from one another where no detour
+  /// lies within the samples' times.
+  void sample(double t0_s, double step_s, std::span<mpc::ReferencePoint> out) const override;
 
   /// The plan's own (undeformed) reference at the agent's time t, with the delay at t.
   mpc::ReferencePoint plan_at(double t_s) const;
@@ -73,6 +76,11 @@ class AgentReference : public mpc::ReferenceTrajectory {
   void set_detour(std::optional<mpc::SampledReference> detour);
 
  private:
+  /// plan_at's speeds and rates, for the delay δ(t) = delay_s: times 1 − δ̇ while δ grows.
+  void slow_down(double t_s, double delay_s, mpc::ReferencePoint& p) const;
+  /// at()'s level: the offset at t added to the height, its rate to the climb rate.
+  void raise_to_level(double t_s, mpc::ReferencePoint& p) const;
+
   std::shared_ptr<const mpc::SampledReference> plan_;
   double delay_from_s_ = 0.0;  ///< the delay at delay_since_s_
   double delay_target_s_ = 0.0;

@@ -551,5 +551,67 @@ TEST(SampledReference, FromPositionsMatchesAnalyticHelix) {
                InputError);
 }
 
+void expect_same_point(const ReferencePoint& a, const ReferencePoint& b, const std::string& at) {
+  EXPECT_EQ(a.position_m, b.position_m) << at;
+  EXPECT_EQ(a.heading_rad, b.heading_rad) << at;
+  EXPECT_EQ(a.speed_m_s, b.speed_m_s) << at;
+  EXPECT_EQ(a.turn_rate_rad_s, b.turn_rate_rad_s) << at;
+  EXPECT_EQ(a.climb_rate_m_s, b.climb_rate_m_s) << at;
+}
+
+// The tracker takes its Np + 1 samples with sample(): for a sampled reference they must be
+// at()'s bit for bit, before its first sample, between uneven samples (several a sample, one
+// sample skipped, headings across ±π), and past its last; a step of 0 repeats one time; times
+// out of order in at_increasing are searched for.
+TEST(SampledReference, SampleEqualsAtBitForBit) {
+  std::vector<double> times{0.0, 0.3, 1.1, 1.2, 1.25, 2.5, 4.0, 4.05, 6.0};
+  std::vector<Vec3> pos;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const double a = 2.9 + 0.4 * static_cast<double>(i);  // around the −x axis: ψ crosses ±π
+    pos.emplace_back(30.0 * std::cos(a) + times[i], 30.0 * std::sin(a), 100.0 - times[i]);
+  }
+  const SampledReference ref = SampledReference::from_positions(times, pos);
+  for (const double step : {0.1, 0.0137, 0.0, 1.3}) {
+    std::vector<ReferencePoint> out(75);
+    const double t0 = -0.7;
+    ref.sample(t0, step, out);
+    for (std::size_t j = 0; j < out.size(); ++j) {
+      const double t = t0 + static_cast<double>(j) * step;
+      expect_same_point(out[j], ref.at(t), "step " + std::to_string(step) + " t " + std::to_string(t));
+    }
+  }
+  const std::vector<double> shuffled{1.22, 0.5, 5.0, 1.15, -2.0, 7.0, 3.0, 1.21};
+  std::vector<ReferencePoint> out(shuffled.size());
+  ref.at_increasing(shuffled, out);
+  for (std::size_t j = 0; j < out.size(); ++j)
+    expect_same_point(out[j], ref.at(shuffled[j]), "t " + std::to_string(shuffled[j]));
+}
+
+// A helix's samples take their sines and cosines four at a time (libmvec where the CPU has
+// AVX2): the positions equal at()'s to round-off, everything else bit for bit; 41 samples are
+// two batches and a tail.
+TEST(HelixReference, SampleEqualsAtToRoundOff) {
+  HelixReference::Config c;
+  c.radius_m = 150.0;
+  c.climb_rate_m_s = 0.7;
+  c.phase0_rad = 2.0;
+  c.t0_s = 3.0;
+  for (const bool left : {true, false}) {
+    c.turn_left = left;
+    const HelixReference helix(c);
+    std::vector<ReferencePoint> out(41);
+    helix.sample(123.456, 0.1, out);
+    for (std::size_t j = 0; j < out.size(); ++j) {
+      const ReferencePoint a = helix.at(123.456 + static_cast<double>(j) * 0.1);
+      EXPECT_LT((out[j].position_m - a.position_m).norm(), 1e-12 * 150.0) << j;
+      EXPECT_EQ(out[j].position_m.z(), a.position_m.z()) << j;
+      EXPECT_EQ(out[j].heading_rad, a.heading_rad) << j;
+      EXPECT_EQ(out[j].speed_m_s, a.speed_m_s) << j;
+      EXPECT_EQ(out[j].turn_rate_rad_s, a.turn_rate_rad_s) << j;
+      EXPECT_EQ(out[j].climb_rate_m_s, a.climb_rate_m_s) << j;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ridgeline::mpc

@@ -118,5 +118,38 @@ TEST(AgentReference, DetourAppliesOnlyInsideItsWindow) {
   EXPECT_NEAR(r.at(9.0).position_m.x(), 90.0, 1e-9);
 }
 
+void expect_same_point(const mpc::ReferencePoint& a, const mpc::ReferencePoint& b, double t) {
+  EXPECT_EQ(a.position_m, b.position_m) << "t " << t;
+  EXPECT_EQ(a.heading_rad, b.heading_rad) << "t " << t;
+  EXPECT_EQ(a.speed_m_s, b.speed_m_s) << "t " << t;
+  EXPECT_EQ(a.turn_rate_rad_s, b.turn_rate_rad_s) << "t " << t;
+  EXPECT_EQ(a.climb_rate_m_s, b.climb_rate_m_s) << "t " << t;
+}
+
+void expect_sample_equals_at(const AgentReference& r, double t0, double step, int count) {
+  std::vector<mpc::ReferencePoint> out(static_cast<std::size_t>(count));
+  r.sample(t0, step, out);
+  for (int j = 0; j < count; ++j) {
+    const double t = t0 + static_cast<double>(j) * step;
+    expect_same_point(out[static_cast<std::size_t>(j)], r.at(t), t);
+  }
+}
+
+// The tracker's samples come from sample(): they must be at()'s bit for bit while the delay
+// grows (the plan slowed down) and then holds, while the level moves, and with a detour inside
+// the samples' times (at() for each) or outside them (the plan's walk).
+TEST(AgentReference, SampleEqualsAtBitForBit) {
+  AgentReference r(straight_line());
+  expect_sample_equals_at(r, 5.0, 0.1, 41);
+  r.set_delay(20.0, 3.0, 0.5);  // δ grows from 0 at 20 s to 3 s at 26 s
+  r.set_level(21.0, 12.0, 2.0);  // the level reaches 12 m at 27 s
+  for (const double t0 : {18.0, 22.5, 25.9, 30.0}) expect_sample_equals_at(r, t0, 0.1, 41);
+  expect_sample_equals_at(r, 19.0, 0.0, 5);
+  std::vector<double> t{40.0, 41.0, 42.0};
+  std::vector<Vec3> p{Vec3(370, 0, 100), Vec3(380, 20, 100), Vec3(390, 0, 100)};
+  r.set_detour(mpc::SampledReference::from_positions(t, p));
+  for (const double t0 : {36.5, 37.9, 40.5, 42.0, 42.1, 50.0}) expect_sample_equals_at(r, t0, 0.1, 41);
+}
+
 }  // namespace
 }  // namespace ridgeline::swarm
