@@ -130,6 +130,8 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   nominal_positions_ = MatX::Zero(3, np_);
   reference_points_.resize(np_ + 1);
   neighbour_positions_.resize(np_);
+  terrain_heights_.resize(np_);
+  terrain_gradients_.resize(np_);
   result_.predicted_positions_m = MatX::Zero(3, np_);
   result_.predicted_states = MatX::Zero(vehicle::kStateDim, np_);
   result_.prediction_step_s = options.prediction_step_s;
@@ -371,10 +373,11 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
 
   if (env.terrain != nullptr) {
     const double model_error = env.terrain->model_error_m();
+    env.terrain->heights_and_gradients(nominal_positions_, terrain_heights_, terrain_gradients_);
     for (int j = 0; j < np_; ++j) {
       const Vec3 pbar = nominal_positions_.col(j);
-      Vec2 g;
-      const double h = env.terrain->height_and_gradient(pbar.x(), pbar.y(), g);
+      const Vec2& g = terrain_gradients_[j];
+      const double h = terrain_heights_[j];
       const double required = limits_.terrain_clearance_m + margin(j) + model_error;
       if (pbar.z() - h - required > activation) continue;
       // z − ∇H·(p − p̄)_xy ≥ H(p̄) + h_safe + m_j + e_H

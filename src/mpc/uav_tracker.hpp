@@ -242,6 +242,8 @@ class UavTracker {
   MatX nominal_positions_;                        // 3×Np: p̄ at t + (j+1)Δt_p
   std::vector<ReferencePoint> reference_points_;  // r(t + jΔt_p), j = 0..Np
   std::vector<Vec3> neighbour_positions_;         // Np: one neighbour's at t + (j+1)Δt_p
+  std::vector<double> terrain_heights_;           // Np: H at the nominal positions
+  std::vector<Vec2> terrain_gradients_;           // Np: ∇H there
 };
 
 }  // namespace ridgeline::mpc

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -13,10 +14,32 @@
 #include "core/simd_clones.hpp"
 
 namespace ridgeline::world {
+namespace {
+
+void check_batch(const Eigen::Ref<const Eigen::MatrixXd>& positions_m, std::size_t heights,
+                 std::size_t gradients) {
+  const auto n = static_cast<std::size_t>(positions_m.cols());
+  if (positions_m.rows() < 2 || heights != n || gradients != n) {
+    throw std::invalid_argument(fmt::format(
+        "Terrain::heights_and_gradients: {} x {} positions for {} heights and {} gradients",
+        positions_m.rows(), positions_m.cols(), heights, gradients));
+  }
+}
+
+}  // namespace
 
 double Terrain::height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const {
   gradient_out = gradient(x_m, y_m);
   return height(x_m, y_m);
+}
+
+void Terrain::heights_and_gradients(const Eigen::Ref<const Eigen::MatrixXd>& positions_m,
+                                    std::span<double> heights_m, std::span<Vec2> gradients) const {
+  check_batch(positions_m, heights_m.size(), gradients.size());
+  for (Eigen::Index j = 0; j < positions_m.cols(); ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    heights_m[k] = height_and_gradient(positions_m(0, j), positions_m(1, j), gradients[k]);
+  }
 }
 
 Eigen::Matrix2d Terrain::hessian(double x_m, double y_m) const {
@@ -117,6 +140,41 @@ RIDGELINE_SIMD_CLONES int best_peak(const double* __restrict x0, const double* _
   return best;
 }
 
+// best_peak for four positions at a time, one a lane: each peak's score is the same
+// expression, and the choice the same (the highest score; strict > over the peaks in order
+// keeps the lowest index on a tie; 0 when none is above −∞), without best_peak's
+// data-dependent branches. The last one to three positions go to best_peak.
+RIDGELINE_SIMD_CLONES void best_peaks(const double* __restrict x0, const double* __restrict y0,
+                                      const double* __restrict inv_sx,
+                                      const double* __restrict inv_sy,
+                                      const double* __restrict log_h, int n,
+                                      const double* __restrict xs, const double* __restrict ys,
+                                      int count, int* __restrict best) {
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  int j = 0;
+  for (; j + 4 <= count; j += 4) {
+    Vec4 x, y;
+    std::memcpy(&x, xs + j, sizeof x);
+    std::memcpy(&y, ys + j, sizeof y);
+    Vec4 best_score = {kNone, kNone, kNone, kNone};
+    Mask4 best_index = {0, 0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+      const Vec4 px = {x0[i], x0[i], x0[i], x0[i]}, py = {y0[i], y0[i], y0[i], y0[i]};
+      const Vec4 sx = {inv_sx[i], inv_sx[i], inv_sx[i], inv_sx[i]};
+      const Vec4 sy = {inv_sy[i], inv_sy[i], inv_sy[i], inv_sy[i]};
+      const Vec4 lh = {log_h[i], log_h[i], log_h[i], log_h[i]};
+      const Vec4 dx = (x - px) * sx, dy = (y - py) * sy;
+      const Vec4 score = lh - (dx * dx + dy * dy);
+      const Mask4 better = score > best_score;
+      const Mask4 index = {i, i, i, i};
+      best_score = better ? score : best_score;
+      best_index = better ? index : best_index;
+    }
+    for (int l = 0; l < 4; ++l) best[j + l] = static_cast<int>(best_index[l]);
+  }
+  for (; j < count; ++j) best[j] = best_peak(x0, y0, inv_sx, inv_sy, log_h, n, xs[j], ys[j]);
+}
+
 }  // namespace
 
 void validate_peak_terrain_config(const PeakTerrainConfig& config, const std::string& path) {
@@ -197,6 +255,37 @@ double PeakTerrain::height_and_gradient(double x_m, double y_m, Vec2& gradient_o
     gradient_out = peak_gradient(*peak, field, x_m, y_m);
   }
   return config_.base_elevation_m + field;
+}
+
+void PeakTerrain::heights_and_gradients(const Eigen::Ref<const Eigen::MatrixXd>& positions_m,
+                                        std::span<double> heights_m,
+                                        std::span<Vec2> gradients) const {
+  const int n = static_cast<int>(config_.peaks.size());
+  if (config_.combination == PeakCombination::kSum || n == 0) {
+    Terrain::heights_and_gradients(positions_m, heights_m, gradients);
+    return;
+  }
+  check_batch(positions_m, heights_m.size(), gradients.size());
+  constexpr int kBatch = 16;  // positions a call of best_peaks (on the stack)
+  double xs[kBatch], ys[kBatch];
+  int best[kBatch];
+  const int total = static_cast<int>(positions_m.cols());
+  for (int begin = 0; begin < total; begin += kBatch) {
+    const int count = std::min(kBatch, total - begin);
+    for (int k = 0; k < count; ++k) {
+      xs[k] = positions_m(0, begin + k);
+      ys[k] = positions_m(1, begin + k);
+    }
+    best_peaks(peak_x_.data(), peak_y_.data(), peak_inv_sigma_x_.data(),
+               peak_inv_sigma_y_.data(), log_height_.data(), n, xs, ys, count, best);
+    for (int k = 0; k < count; ++k) {  // as dominant() and height_and_gradient()
+      const Peak& p = config_.peaks[static_cast<std::size_t>(best[k])];
+      const double value = p.height_m * std::exp(-peak_exponent(p, xs[k], ys[k]));
+      const auto out = static_cast<std::size_t>(begin + k);
+      gradients[out] = peak_gradient(p, value, xs[k], ys[k]);
+      heights_m[out] = config_.base_elevation_m + value;
+    }
+  }
 }
 
 RasterTerrain::RasterTerrain(RasterGrid grid, double model_error_m, const std::string& what)

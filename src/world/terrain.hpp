@@ -6,6 +6,7 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,13 @@ class Terrain {
   /// clearance rows, which need both at every predicted position of every step. The default
   /// calls the two; a model that finds both from the same work overrides it.
   virtual double height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const;
+  /// height_and_gradient at each column j of `positions_m` (x and y its first two rows, any
+  /// others not read): heights_m[j] and gradients[j], equal to it bit for bit. The MPC's step
+  /// reads the terrain at its Np predicted positions at once; a model that takes several
+  /// together overrides it, and this one asks height_and_gradient for each. Throws
+  /// std::invalid_argument unless both spans have one entry a column and there are ≥ 2 rows.
+  virtual void heights_and_gradients(const Eigen::Ref<const Eigen::MatrixXd>& positions_m,
+                                     std::span<double> heights_m, std::span<Vec2> gradients) const;
   /// Hessian of H (1/m). The default is central differences of gradient() at 1 mm, symmetrized;
   /// a model with an analytic one overrides it.
   virtual Eigen::Matrix2d hessian(double x_m, double y_m) const;
@@ -76,6 +84,9 @@ class PeakTerrain : public Terrain {
   Vec2 gradient(double x_m, double y_m) const override;
   /// One pass over the peaks (one dominant-peak search for `max`).
   double height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const override;
+  /// For `max`, the dominant peaks of four positions at a time (one a lane, branch-free).
+  void heights_and_gradients(const Eigen::Ref<const Eigen::MatrixXd>& positions_m,
+                             std::span<double> heights_m, std::span<Vec2> gradients) const override;
   double model_error_m() const override { return config_.model_error_m; }
 
   const PeakTerrainConfig& config() const { return config_; }

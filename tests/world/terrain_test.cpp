@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include "core/error.hpp"
@@ -177,6 +178,73 @@ TEST(PeakTerrainTest, HeightAndGradientEqualTheSeparateQueries) {
     }
   }
   EXPECT_GT(with_slope, 4000);  // the peaks' flanks, not only the flat base
+}
+
+// heights_and_gradients is how the MPC's step reads the terrain at its Np positions: each
+// entry must be height_and_gradient's bit for bit, for 1 to 70 peaks (the four-position lanes
+// and the tail of one to three), both combinations, no peaks and a raster (the interface's
+// default); a NaN position gives NaN in both; the max field's lower index on an exact tie
+// holds in every lane. Spans of the wrong size are refused.
+TEST(PeakTerrainTest, BatchEqualsHeightAndGradientBitForBit) {
+  Rng rng(29);
+  std::vector<std::unique_ptr<Terrain>> terrains;
+  for (const int n : {1, 3, 7, 8, 9, 70}) {
+    PeakTerrainConfig config;
+    config.base_elevation_m = 3.0;
+    for (int i = 0; i < n; ++i)
+      config.peaks.push_back({rng.uniform(0, 2000), rng.uniform(0, 2000), rng.uniform(1, 400),
+                              rng.uniform(20, 400), rng.uniform(20, 400)});
+    for (const auto combination : {PeakCombination::kMax, PeakCombination::kSum}) {
+      config.combination = combination;
+      terrains.push_back(std::make_unique<PeakTerrain>(config));
+    }
+  }
+  // Two equal peaks either side of (1000, 1000), among far low ones: an exact tie there.
+  PeakTerrainConfig tie;
+  for (int k = 0; k < 9; ++k) tie.peaks.push_back({5000.0 + 100 * k, -4000.0, 1.0, 50, 50});
+  tie.peaks[2] = {970.0, 1000.0, 200.0, 100.0, 80.0};
+  tie.peaks[6] = {1030.0, 1000.0, 200.0, 100.0, 80.0};
+  terrains.push_back(std::make_unique<PeakTerrain>(tie));
+  terrains.push_back(std::make_unique<PeakTerrain>(PeakTerrainConfig{}));
+  terrains.push_back(std::make_unique<RasterTerrain>(
+      sample_terrain(*terrains.front(), 30, 30, Vec2(0, 0), Vec2(100, 100))));
+  for (const int count : {1, 4, 37, 40}) {
+    Eigen::MatrixXd positions(3, count);
+    for (int j = 0; j < count; ++j)
+      positions.col(j) = Vec3(rng.uniform(-500, 2500), rng.uniform(-500, 2500), 100.0);
+    if (count >= 37) {
+      positions.col(5) = Vec3(1000.0, 1000.0, 0.0);  // the tie, in a lane
+      positions.col(count - 2) = Vec3(1000.0, 1000.0, 0.0);  // and in the tail
+      positions(0, 9) = std::numeric_limits<double>::quiet_NaN();
+    }
+    for (const auto& terrain : terrains) {
+      std::vector<double> heights(static_cast<std::size_t>(count), -1.0);
+      std::vector<Vec2> gradients(static_cast<std::size_t>(count), Vec2(7.0, 7.0));
+      terrain->heights_and_gradients(positions, heights, gradients);
+      for (int j = 0; j < count; ++j) {
+        Vec2 g;
+        const double h = terrain->height_and_gradient(positions(0, j), positions(1, j), g);
+        const auto k = static_cast<std::size_t>(j);
+        if (std::isnan(h)) {
+          EXPECT_TRUE(std::isnan(heights[k])) << count << " " << j;
+          continue;
+        }
+        EXPECT_EQ(heights[k], h) << count << " " << j;
+        EXPECT_EQ(gradients[k], g) << count << " " << j;
+      }
+    }
+  }
+  // The tie's lower index (the left peak, sloping down to +x) in a batch of eight.
+  const PeakTerrain tied(tie);
+  Eigen::MatrixXd at_tie = Eigen::MatrixXd::Constant(2, 8, 1000.0);
+  std::vector<double> heights(8);
+  std::vector<Vec2> gradients(8);
+  tied.heights_and_gradients(at_tie, heights, gradients);
+  for (const Vec2& g : gradients) EXPECT_LT(g.x(), 0.0);
+  std::vector<double> short_heights(7);
+  EXPECT_THROW(tied.heights_and_gradients(at_tie, short_heights, gradients), std::invalid_argument);
+  EXPECT_THROW(tied.heights_and_gradients(Eigen::MatrixXd(1, 8), heights, gradients),
+               std::invalid_argument);
 }
 
 TEST(PeakTerrainTest, RejectsBadConfigNamingTheField) {
