@@ -70,6 +70,16 @@ Vec2 MappedRasterTerrain::gradient(double x_m, double y_m) const {
   return jacobian.transpose() * source_.gradient(s.x(), s.y());
 }
 
+double MappedRasterTerrain::height_and_gradient(double x_m, double y_m,
+                                                Vec2& gradient_out) const {
+  Mat2 jacobian;
+  const Vec2 s = map_.at(x_m, y_m, &jacobian);  // the same s as without the Jacobian
+  Vec2 source_gradient;
+  const double h = source_.height_and_gradient(s.x(), s.y(), source_gradient);
+  gradient_out = jacobian.transpose() * source_gradient;
+  return h;
+}
+
 Vec2 max_axis_slopes(const RasterGrid& grid) {
   Vec2 slope = Vec2::Zero();
   for (int r = 0; r < grid.rows; ++r)

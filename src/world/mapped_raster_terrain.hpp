@@ -54,6 +54,8 @@ class MappedRasterTerrain : public Terrain {
 
   double height(double x_m, double y_m) const override;
   Vec2 gradient(double x_m, double y_m) const override;
+  /// One map and one cell look-up for both (the MPC's clearance rows on a DEM).
+  double height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const override;
   double model_error_m() const override { return map_error_m_; }
 
   const RasterTerrain& source() const { return source_; }

@@ -321,30 +321,42 @@ RasterTerrain::Cell RasterTerrain::locate(double x_m, double y_m) const {
   return cell;
 }
 
-double RasterTerrain::height(double x_m, double y_m) const {
-  const Cell c = locate(x_m, y_m);
-  const int c1 = std::min(c.col + 1, grid_.cols - 1);
-  const int r1 = std::min(c.row + 1, grid_.rows - 1);
-  const double h00 = grid_.at(c.row, c.col);
-  const double h01 = grid_.at(c.row, c1);
-  const double h10 = grid_.at(r1, c.col);
-  const double h11 = grid_.at(r1, c1);
-  return (1.0 - c.u) * (1.0 - c.v) * h00 + c.u * (1.0 - c.v) * h01 + (1.0 - c.u) * c.v * h10 +
-         c.u * c.v * h11;
+RasterTerrain::Patch RasterTerrain::patch(double x_m, double y_m) const {
+  Patch p;
+  p.cell = locate(x_m, y_m);
+  const int c1 = std::min(p.cell.col + 1, grid_.cols - 1);
+  const int r1 = std::min(p.cell.row + 1, grid_.rows - 1);
+  p.h00 = grid_.at(p.cell.row, p.cell.col);
+  p.h01 = grid_.at(p.cell.row, c1);
+  p.h10 = grid_.at(r1, p.cell.col);
+  p.h11 = grid_.at(r1, c1);
+  return p;
 }
 
-Vec2 RasterTerrain::gradient(double x_m, double y_m) const {
-  const Cell c = locate(x_m, y_m);
-  const int c1 = std::min(c.col + 1, grid_.cols - 1);
-  const int r1 = std::min(c.row + 1, grid_.rows - 1);
-  const double h00 = grid_.at(c.row, c.col);
-  const double h01 = grid_.at(c.row, c1);
-  const double h10 = grid_.at(r1, c.col);
-  const double h11 = grid_.at(r1, c1);
+double RasterTerrain::patch_height(const Patch& p) {
+  const Cell& c = p.cell;
+  return (1.0 - c.u) * (1.0 - c.v) * p.h00 + c.u * (1.0 - c.v) * p.h01 +
+         (1.0 - c.u) * c.v * p.h10 + c.u * c.v * p.h11;
+}
+
+Vec2 RasterTerrain::patch_gradient(const Patch& p) const {
+  const Cell& c = p.cell;
   Vec2 g;
-  g.x() = c.clamped_x ? 0.0 : ((1.0 - c.v) * (h01 - h00) + c.v * (h11 - h10)) / grid_.cell_x_m;
-  g.y() = c.clamped_y ? 0.0 : ((1.0 - c.u) * (h10 - h00) + c.u * (h11 - h01)) / grid_.cell_y_m;
+  g.x() = c.clamped_x ? 0.0 : ((1.0 - c.v) * (p.h01 - p.h00) + c.v * (p.h11 - p.h10)) / grid_.cell_x_m;
+  g.y() = c.clamped_y ? 0.0 : ((1.0 - c.u) * (p.h10 - p.h00) + c.u * (p.h11 - p.h01)) / grid_.cell_y_m;
   return g;
+}
+
+double RasterTerrain::height(double x_m, double y_m) const { return patch_height(patch(x_m, y_m)); }
+
+Vec2 RasterTerrain::gradient(double x_m, double y_m) const {
+  return patch_gradient(patch(x_m, y_m));
+}
+
+double RasterTerrain::height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const {
+  const Patch p = patch(x_m, y_m);
+  gradient_out = patch_gradient(p);
+  return patch_height(p);
 }
 
 RasterGrid sample_terrain(const Terrain& terrain, int rows, int cols, const Vec2& origin_m,

@@ -127,6 +127,8 @@ class RasterTerrain : public Terrain {
 
   double height(double x_m, double y_m) const override;
   Vec2 gradient(double x_m, double y_m) const override;
+  /// One cell look-up for both (the MPC's clearance rows on a DEM).
+  double height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const override;
   double model_error_m() const override { return model_error_m_; }
 
   const RasterGrid& grid() const { return grid_; }
@@ -141,6 +143,15 @@ class RasterTerrain : public Terrain {
     bool clamped_y = false;
   };
   Cell locate(double x_m, double y_m) const;
+  /// The cell at (x, y) and its four corner heights (h_rc: row r, column c, from its
+  /// south-west corner), and the bilinear height and gradient over them.
+  struct Patch {
+    Cell cell;
+    double h00 = 0.0, h01 = 0.0, h10 = 0.0, h11 = 0.0;
+  };
+  Patch patch(double x_m, double y_m) const;
+  static double patch_height(const Patch& p);
+  Vec2 patch_gradient(const Patch& p) const;
 
   RasterGrid grid_;
   double model_error_m_ = 0.0;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -75,6 +76,31 @@ TEST(MappedRasterTerrain, GradientIsTheChainRuleOfTheMapAndTheRaster) {
       ++checked;
     }
   EXPECT_GT(checked, 500);
+}
+
+// The MPC's clearance rows on a DEM read height_and_gradient (one map and one cell look-up for
+// both): it must equal height() and gradient() bit for bit, inside the lattice, beyond it and
+// on cell edges, and so must the batch of the Np positions of a step.
+TEST(MappedRasterTerrain, HeightAndGradientEqualTheSeparateQueries) {
+  const MappedRasterTerrain mapped(bumpy_grid(), affine_map(), 0.0);
+  Eigen::MatrixXd positions(3, 0);
+  for (double x = -900.0; x <= 900.0; x += 31.0)
+    for (double y = -700.0; y <= 700.0; y += 29.0) {
+      Vec2 g(9.0, 9.0);
+      const double h = mapped.height_and_gradient(x, y, g);
+      EXPECT_EQ(h, mapped.height(x, y)) << x << ", " << y;
+      EXPECT_EQ(g, mapped.gradient(x, y)) << x << ", " << y;
+      positions.conservativeResize(3, positions.cols() + 1);
+      positions.col(positions.cols() - 1) = Vec3(x, y, 0.0);
+    }
+  std::vector<double> heights(static_cast<std::size_t>(positions.cols()));
+  std::vector<Vec2> gradients(heights.size());
+  mapped.heights_and_gradients(positions, heights, gradients);
+  for (Eigen::Index j = 0; j < positions.cols(); ++j) {
+    EXPECT_EQ(heights[static_cast<std::size_t>(j)], mapped.height(positions(0, j), positions(1, j)));
+    EXPECT_EQ(gradients[static_cast<std::size_t>(j)],
+              mapped.gradient(positions(0, j), positions(1, j)));
+  }
 }
 
 TEST(MappedRasterTerrain, BadMapsAreOneErrorNamingTheField) {
