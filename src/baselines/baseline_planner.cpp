@@ -27,8 +27,6 @@ double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-double wrap_angle(double a) { return std::remainder(a, 2.0 * kPi); }
-
 /// The cost of flying a straight horizontal piece from a to b with heading change `turn_rad`
 /// before it, for one baseline (file comment). z_a, z_b: the grid's required altitudes.
 class LegCost {

@@ -6,11 +6,6 @@
 #include "core/error.hpp"
 
 namespace ridgeline::baselines {
-namespace {
-
-double wrap_angle(double a) { return std::remainder(a, 2.0 * kPi); }
-
-}  // namespace
 
 PursuitAgent::PursuitAgent(const BaselineAgentOptions& options, const world::SafetyLimits& limits,
                            const PursuitOptions& pursuit,

@@ -26,8 +26,6 @@ void require(bool ok, const char* field, const char* reason) {
   if (!ok) throw InputError(field, reason);
 }
 
-double wrap_angle(double a) { return std::remainder(a, 2.0 * kPi); }
-
 /// The delayed plan without the detour: what a new detour is built around.
 class DelayedPlan : public mpc::ReferenceTrajectory {
  public:
