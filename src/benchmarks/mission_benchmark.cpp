@@ -36,6 +36,7 @@ nlohmann::json MissionBenchmarkReport::to_json() const {
           {"deterministic", deterministic},
           {"all_safe", std::all_of(runs.begin(), runs.end(),
                                    [](const MissionBenchmarkRun& r) { return r.safe; })},
+          {"host_speed", host_speed.to_json()},
           {"runs", runs_json}};
 }
 
@@ -49,6 +50,7 @@ MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
   sim::MissionOptions mission_options;  // records trajectories, as `ridgeline run` does
   std::vector<double> wall, cpu, rtf_wall, rtf_cpu;
   std::vector<double> first_path_lengths;
+  report.host_speed.before = dependent_adds_per_ns();
   for (int k = 0; k < options.repeats; ++k) {
     const mission::MissionResult flown = sim::fly_mission(scenario, terrain, plan, mission_options);
     const mission::MissionMetrics& m = flown.metrics;
@@ -75,6 +77,7 @@ MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
     rtf_cpu.push_back(r.cpu_time_s > 0.0 ? r.sim_time_s / r.cpu_time_s : 0.0);
     report.runs.push_back(r);
   }
+  report.host_speed.after = dependent_adds_per_ns();
   report.wall_time_s_median = median(wall);
   report.cpu_time_s_median = median(cpu);
   report.real_time_factor_wall = median(rtf_wall);

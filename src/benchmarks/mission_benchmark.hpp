@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
+#include "benchmarks/host_speed.hpp"
 #include "mission/scenario.hpp"
 #include "mission/statistics.hpp"
 #include "planning/global_planner.hpp"
@@ -41,6 +42,7 @@ struct MissionBenchmarkReport {
   /// Every flight simulated the same time and ended in the same state (the loop is
   /// deterministic for a seed, so a difference is a bug, not noise).
   bool deterministic = true;
+  HostSpeed host_speed;  ///< this core's speed before and after the flights
   nlohmann::json to_json() const;
 };
 

@@ -51,7 +51,8 @@ nlohmann::json MpcBenchmarkReport::to_json() const {
           {"ipopt_qp_us_median", ipopt_qp_us_median},
           {"ours_on_compared_qp_us_median", ours_on_compared_us_median},
           {"ipopt_over_ours_ratio", ipopt_over_ours_ratio},
-          {"max_rel_objective_gap", max_rel_objective_gap}};
+          {"max_rel_objective_gap", max_rel_objective_gap},
+          {"host_speed", host_speed.to_json()}};
 }
 
 MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
@@ -118,6 +119,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   const double dt_truth = tracker_options.control_period_s / truth_substeps;
   double t = 0.0;
   double rows = 0.0, rows_in_qp = 0.0, rows_computed = 0.0;
+  report.host_speed.before = dependent_adds_per_ns();
   for (int k = 0; k < options.steps; ++k) {
     const double cpu_start = thread_cpu_us();
     const auto start = std::chrono::steady_clock::now();
@@ -160,6 +162,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
       state = vehicle::rk4_step(state, r.command, wind, truth, dt_truth);
     t += tracker_options.control_period_s;
   }
+  report.host_speed.after = dependent_adds_per_ns();
   report.steps = options.steps;
   report.prediction_horizon = options.prediction_horizon;
   report.control_horizon = options.control_horizon;

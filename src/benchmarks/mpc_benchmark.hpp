@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "benchmarks/host_speed.hpp"
 #include "mission/statistics.hpp"
 
 namespace ridgeline::benchmarks {
@@ -62,6 +63,7 @@ struct MpcBenchmarkReport {
   double ours_on_compared_us_median = 0.0;
   double ipopt_over_ours_ratio = 0.0;  ///< ipopt median / ours median on the compared QPs
   double max_rel_objective_gap = 0.0;  ///< |J_ours − J_ipopt| / max(1, |J_ipopt|)
+  HostSpeed host_speed;  ///< this core's speed before and after the steps
 
   nlohmann::json to_json() const;
 };

@@ -38,6 +38,23 @@ TEST(MissionBenchmark, RepeatedFlightsAreIdenticalAndTheFactorsFollowFromTheirTi
   const nlohmann::json j = r.to_json();
   EXPECT_EQ(j["flights"], 3);
   EXPECT_TRUE(j["all_safe"].get<bool>());
+  // The host's speed is read before and after the flights (dependent_adds_per_ns's own bounds
+  // are tested below).
+  EXPECT_GT(r.host_speed.before, 0.0);
+  EXPECT_GT(r.host_speed.after, 0.0);
+  EXPECT_EQ(j["host_speed"]["dependent_adds_per_ns_before"].get<double>(), r.host_speed.before);
+  EXPECT_EQ(j["host_speed"]["dependent_adds_per_ns_after"].get<double>(), r.host_speed.after);
+}
+
+// The host-speed reading times a chain of dependent additions: a compiler that folded or
+// vectorized it would report hundreds of additions a nanosecond or more, and no core of this
+// century does fewer than 0.01 (10 MHz) or more than 50 in a dependent chain.
+TEST(HostSpeed, DependentAdditionsTakeAboutOneCycleEach) {
+  for (const int samples : {1, 3}) {
+    const double rate = dependent_adds_per_ns(samples);
+    EXPECT_GT(rate, 0.01) << samples;
+    EXPECT_LT(rate, 50.0) << samples;
+  }
 }
 
 TEST(MissionBenchmark, ZeroRepeatsIsAnErrorNamingTheField) {
