@@ -20,7 +20,8 @@ double dependent_adds_per_ns(int samples) {
       // addition nor vectorize it, so each addition waits for the one before.
       asm volatile("" : "+r"(x));
     }
-    const std::chrono::duration<double, std::nano> elapsed = std::chrono::steady_clock::now() - start;
+    const std::chrono::duration<double, std::nano> elapsed =
+        std::chrono::steady_clock::now() - start;
     sink = x;
     rates.push_back(static_cast<double>(kAdds) / elapsed.count());
   }

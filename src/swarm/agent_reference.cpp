@@ -71,20 +71,19 @@ void AgentReference::sample(double t0_s, double step_s, std::span<mpc::Reference
   // The plan alone: its times t − δ(t) increase (δ grows at a rate below 1), so its look-ups
   // walk on from one another (SampledReference::at_increasing), each equal to plan_->at().
   constexpr std::size_t kBatch = 16;  // samples a call (on the stack)
-  double delay[kBatch], plan_time[kBatch];
+  double time[kBatch], delay[kBatch], plan_time[kBatch];
   for (std::size_t begin = 0; begin < out.size(); begin += kBatch) {
     const std::size_t count = std::min(kBatch, out.size() - begin);
     for (std::size_t k = 0; k < count; ++k) {
-      const double t = t0_s + static_cast<double>(begin + k) * step_s;
-      delay[k] = delay_at(t);
-      plan_time[k] = t - delay[k];
+      time[k] = t0_s + static_cast<double>(begin + k) * step_s;
+      delay[k] = delay_at(time[k]);
+      plan_time[k] = time[k] - delay[k];
     }
     const std::span<mpc::ReferencePoint> chunk = out.subspan(begin, count);
     plan_->at_increasing(std::span<const double>(plan_time, count), chunk);
     for (std::size_t k = 0; k < count; ++k) {
-      const double t = t0_s + static_cast<double>(begin + k) * step_s;
-      slow_down(t, delay[k], chunk[k]);
-      raise_to_level(t, chunk[k]);
+      slow_down(time[k], delay[k], chunk[k]);
+      raise_to_level(time[k], chunk[k]);
     }
   }
 }

@@ -65,13 +65,12 @@ double MappedRasterTerrain::height(double x_m, double y_m) const {
 }
 
 Vec2 MappedRasterTerrain::gradient(double x_m, double y_m) const {
-  Mat2 jacobian;
-  const Vec2 s = map_.at(x_m, y_m, &jacobian);
-  return jacobian.transpose() * source_.gradient(s.x(), s.y());
+  Vec2 g;
+  height_and_gradient(x_m, y_m, g);  // the raster's height comes with its gradient, nearly free
+  return g;
 }
 
-double MappedRasterTerrain::height_and_gradient(double x_m, double y_m,
-                                                Vec2& gradient_out) const {
+double MappedRasterTerrain::height_and_gradient(double x_m, double y_m, Vec2& gradient_out) const {
   Mat2 jacobian;
   const Vec2 s = map_.at(x_m, y_m, &jacobian);  // the same s as without the Jacobian
   Vec2 source_gradient;

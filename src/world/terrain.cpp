@@ -342,8 +342,10 @@ double RasterTerrain::patch_height(const Patch& p) {
 Vec2 RasterTerrain::patch_gradient(const Patch& p) const {
   const Cell& c = p.cell;
   Vec2 g;
-  g.x() = c.clamped_x ? 0.0 : ((1.0 - c.v) * (p.h01 - p.h00) + c.v * (p.h11 - p.h10)) / grid_.cell_x_m;
-  g.y() = c.clamped_y ? 0.0 : ((1.0 - c.u) * (p.h10 - p.h00) + c.u * (p.h11 - p.h01)) / grid_.cell_y_m;
+  g.x() = c.clamped_x ? 0.0
+                      : ((1.0 - c.v) * (p.h01 - p.h00) + c.v * (p.h11 - p.h10)) / grid_.cell_x_m;
+  g.y() = c.clamped_y ? 0.0
+                      : ((1.0 - c.u) * (p.h10 - p.h00) + c.u * (p.h11 - p.h01)) / grid_.cell_y_m;
   return g;
 }
 

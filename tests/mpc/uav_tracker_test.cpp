@@ -577,7 +577,8 @@ TEST(SampledReference, SampleEqualsAtBitForBit) {
     ref.sample(t0, step, out);
     for (std::size_t j = 0; j < out.size(); ++j) {
       const double t = t0 + static_cast<double>(j) * step;
-      expect_same_point(out[j], ref.at(t), "step " + std::to_string(step) + " t " + std::to_string(t));
+      expect_same_point(out[j], ref.at(t),
+                        "step " + std::to_string(step) + " t " + std::to_string(t));
     }
   }
   const std::vector<double> shuffled{1.22, 0.5, 5.0, 1.15, -2.0, 7.0, 3.0, 1.21};

@@ -148,7 +148,8 @@ TEST(AgentReference, SampleEqualsAtBitForBit) {
   std::vector<double> t{40.0, 41.0, 42.0};
   std::vector<Vec3> p{Vec3(370, 0, 100), Vec3(380, 20, 100), Vec3(390, 0, 100)};
   r.set_detour(mpc::SampledReference::from_positions(t, p));
-  for (const double t0 : {36.5, 37.9, 40.5, 42.0, 42.1, 50.0}) expect_sample_equals_at(r, t0, 0.1, 41);
+  for (const double t0 : {36.5, 37.9, 40.5, 42.0, 42.1, 50.0})
+    expect_sample_equals_at(r, t0, 0.1, 41);
 }
 
 }  // namespace

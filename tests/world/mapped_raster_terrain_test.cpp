@@ -97,9 +97,9 @@ TEST(MappedRasterTerrain, HeightAndGradientEqualTheSeparateQueries) {
   std::vector<Vec2> gradients(heights.size());
   mapped.heights_and_gradients(positions, heights, gradients);
   for (Eigen::Index j = 0; j < positions.cols(); ++j) {
-    EXPECT_EQ(heights[static_cast<std::size_t>(j)], mapped.height(positions(0, j), positions(1, j)));
-    EXPECT_EQ(gradients[static_cast<std::size_t>(j)],
-              mapped.gradient(positions(0, j), positions(1, j)));
+    const auto k = static_cast<std::size_t>(j);
+    EXPECT_EQ(heights[k], mapped.height(positions(0, j), positions(1, j)));
+    EXPECT_EQ(gradients[k], mapped.gradient(positions(0, j), positions(1, j)));
   }
 }
 
