@@ -47,6 +47,19 @@ inline __attribute__((always_inline)) void axpy4(double* __restrict dst, int n, 
   for (; i < n; ++i) dst[i] += a * src[i];
 }
 
+// dst[0..n) = a·src[0..n), four at a time (rows of 10 or 20, as axpy4).
+inline __attribute__((always_inline)) void scale4(double* __restrict dst, int n, double a,
+                                                  const double* __restrict src) {
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    Vec4 x;
+    std::memcpy(&x, src + i, sizeof x);
+    x = a * x;
+    std::memcpy(dst + i, &x, sizeof x);
+  }
+  for (; i < n; ++i) dst[i] = a * src[i];
+}
+
 // dst[0..n) = base[0..n) + Σ_t a_t·src_t[0..n) over the terms of one row (entries with the same
 // row, sources row `col` of a row-major matrix at `src`, leading dimension ld), summed in the
 // terms' order; base null means zero. The common counts keep the partial sums in registers, so
@@ -126,6 +139,30 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
   int count = static_cast<int>(counts[0] + counts[1] + counts[2] + counts[3]);
   for (; i < n; ++i) count += x[i] != 0.0 ? 1 : 0;
   return count;
+}
+
+// out[0..rows) = w[0..rows) + Σ_{l < cols} M(:, l)·x[l] for a column-major matrix M of 4 to 8
+// rows (kMinDenseStates to kMaxDenseStates; leading dimension `rows`): each column is two
+// four-lane loads, rows 0–3 and rows rows−4 to rows−1 (overlapping when rows < 8, never past the
+// column's end), and two vector multiply-adds, instead of a loop over each row's nonzeros. Each
+// row sums in the order of the sparse loop it replaces (w first, then by column) and a zero
+// entry adds an exact zero (x finite), so the values are the same.
+inline __attribute__((always_inline)) void dense_columns_product(const double* M, int rows,
+                                                                 int cols, const double* w,
+                                                                 const double* x, double* out) {
+  const int tail = rows - 4;
+  Vec4 lo, hi;
+  std::memcpy(&lo, w, sizeof lo);
+  std::memcpy(&hi, w + tail, sizeof hi);
+  for (int l = 0; l < cols; ++l) {
+    Vec4 c0, c1;
+    std::memcpy(&c0, M + rows * l, sizeof c0);
+    std::memcpy(&c1, M + rows * l + tail, sizeof c1);
+    lo += c0 * x[l];
+    hi += c1 * x[l];
+  }
+  std::memcpy(out + tail, &hi, sizeof hi);  // the rows both halves hold are equal
+  std::memcpy(out, &lo, sizeof lo);
 }
 
 // dst(i, j) = src(i, j) for i < rows, j < cols: src row-major (leading dimension src_ld), dst
@@ -273,7 +310,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
   Gamma_ = RowMatX::Zero((np_ + 3) * ns_, nc_ * nu_);
   a_changed_rows_.assign(np_, ~std::uint64_t{0});
-  a_sources_.assign(static_cast<std::size_t>(np_) * ns_, 0);
+  a_dependents_.assign(static_cast<std::size_t>(np_) * ns_, 0);
   b_changed_rows_.assign(nc_, ~std::uint64_t{0});
   c_sources_.assign(ny_, 0);
   phi_changed_.assign(static_cast<std::size_t>(np_) * ny_, 1);
@@ -287,6 +324,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
     qdiag_.segment(j * ny_, ny_) =
         terminal ? options.terminal_output_weight : options.output_weight;
   }
+  dense_ = ns_ >= kMinDenseStates && ns_ <= kMaxDenseStates;
   ds_ = VecX::Zero(ns_);
   dsn_ = VecX::Zero(ns_);
   y_ = VecX::Zero(ny_);
@@ -307,6 +345,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   Hp_ = RowMatX::Zero(nc_ * nu_, nc_ * nu_);
   fp_ = VecX::Zero(nc_ * nu_);
   soft_block_ = RowMatX::Zero(cap, nc_ * nu_);
+  scaled_rows_ = VecX::Zero(static_cast<Eigen::Index>(np_) * ny_ * nc_ * nu_);
+  row_starts_.assign(static_cast<std::size_t>(np_) * ny_, nullptr);
   phi_min_ = VecX::Zero(np_ * ny_);
   phi_max_ = VecX::Zero(np_ * ny_);
   kept_rows_.assign(cap, 0);
@@ -380,8 +420,8 @@ std::string_view IncrementalMpc::check_data() const {
   }
   const int cap = dims_.soft_row_capacity;
   if (static_cast<int>(d.soft_step.size()) != cap || static_cast<int>(d.soft_group.size()) != cap ||
-      static_cast<int>(d.soft_source.size()) != cap || !has_shape(d.soft_normal, ny_, cap) || d.soft_bound.size() != cap || d.soft_row_count < 0 ||
-      d.soft_row_count > cap) {
+      static_cast<int>(d.soft_source.size()) != cap || !has_shape(d.soft_normal, ny_, cap) ||
+      d.soft_bound.size() != cap || d.soft_row_count < 0 || d.soft_row_count > cap) {
     return "soft rows (storage)";
   }
   for (int r = 0; r < d.soft_row_count; ++r) {
@@ -429,16 +469,16 @@ void IncrementalMpc::collect_plant_nonzeros() {
     }
     same = false;  // this step and every later one are listed anew
     a_changed_rows_[j] = ~std::uint64_t{0};
+    std::uint64_t* dependents = &a_dependents_[static_cast<std::size_t>(j) * ns_];
+    std::fill_n(dependents, ns_, 0);
     for (int k = 0; k < ns_; ++k) {
       a_row_begin_[j * ns_ + k] = n;
-      std::uint64_t sources = 0;
       for (int l = 0; l < ns_; ++l) {
         const double v = A[l * ns_ + k];
         if (v == 0.0) continue;
         a_entries_[n++] = Entry{k, l, v};
-        sources |= std::uint64_t{1} << (l & 63);
+        dependents[l] |= std::uint64_t{1} << (k & 63);
       }
-      a_sources_[j * ns_ + k] = sources;
     }
   }
   if (!same) {
@@ -621,7 +661,7 @@ void IncrementalMpc::forward_pass() {
   // The rows are tracked as bits of 64-bit masks; a plant of more than 64 states computes
   // every row each step.
   bool keep = rows_valid_ && ns_ <= 64;  // Γ's rows
-  bool keep_phi = keep && !c_changed_;    // Φ's rows also read C
+  bool keep_phi = keep && !c_changed_;   // Φ's rows also read C
   if (output_reach_ != phi_reach_) {
     Phi_.setZero();
     phi_reach_ = output_reach_;
@@ -673,14 +713,19 @@ void IncrementalMpc::forward_pass() {
     // span lies inside it (reaches are closed over A), and its entries outside its own span
     // are exact zeros.
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
-    const std::uint64_t* sources = &a_sources_[static_cast<std::size_t>(j) * ns_];
-    for (int k = 0; k < ns_; ++k) {
+    if (dense_) {
+      dense_columns_product(d.A[j].data(), ns_, ns_, w, ds, dsn);
+    } else {
+      for (int k = 0; k < ns_; ++k) {
+        double v = w[k];
+        for (int e = row_begin[k]; e < row_begin[k + 1]; ++e) {
+          v += a_entries_[e].value * ds[a_entries_[e].col];
+        }
+        dsn[k] = v;
+      }
+    }
+    const auto gamma_row = [&](int k) __attribute__((always_inline)) {
       const int first = row_begin[k], end = row_begin[k + 1];
-      double v = w[k];
-      for (int e = first; e < end; ++e) v += a_entries_[e].value * ds[a_entries_[e].col];
-      dsn[k] = v;
-      if ((sources[k] & previous_changed) != 0) changed |= std::uint64_t{1} << (k & 63);
-      if ((changed >> (k & 63) & 1) == 0) continue;
       const int lo = state_span_lo_[k];
       double* row = ((alternating >> (k & 63)) & 1 ? now_alt : now) + k * ld;
       combine_row(row + lo, state_span_hi_[k] - lo, nullptr, &a_entries_[first], end - first,
@@ -690,9 +735,22 @@ void IncrementalMpc::forward_pass() {
           row[b_entries_[e].col * nc_ + j] = b_entries_[e].value;
         }
       }
+    };
+    if (ns_ <= 64) {
+      // And the rows that read a row of Γ_{j−1} computed anew (its dependents in A_j); only
+      // the rows computed anew are visited.
+      const std::uint64_t* dependents = &a_dependents_[static_cast<std::size_t>(j) * ns_];
+      for (std::uint64_t m = previous_changed; m != 0; m &= m - 1) {
+        changed |= dependents[std::countr_zero(m)];
+      }
+      changed &= state_rows;
+      for (std::uint64_t m = changed; m != 0; m &= m - 1) gamma_row(std::countr_zero(m));
+      rows_computed += std::popcount(changed);
+    } else {
+      for (int k = 0; k < ns_; ++k) gamma_row(k);
+      rows_computed += ns_;
     }
     previous_changed = changed;
-    rows_computed += ns_ <= 64 ? std::popcount(changed & state_rows) : ns_;
     std::swap(ds, dsn);
     // y_j = y_{j−1} + C ds_j row by row in scalars: ds was just written entry by entry, and a
     // vector load of it would wait for those stores to retire instead of forwarding them.
@@ -764,28 +822,38 @@ void IncrementalMpc::build_cost() {
       // The whole block: the diagonal tiles also sum entries above the diagonal (unread).
       for (int a = lo; a < lo + size; ++a) std::fill_n(Hp_.row(a).data() + lo, size, 0.0);
     }
+    // Each row's start, and its entries times q_r packed one row after the other: the tiles
+    // below read a row's four products q_r·φ_r(a0 + i) as broadcasts from memory instead of
+    // four loads and four multiplications a tile (the same products, so the same sums).
+    const int count = end - begin;
+    const double** starts = row_starts_.data();
+    double* scaled = scaled_rows_.data();
+    for (int n = 0; n < count; ++n) {
+      const int r = rows[begin + n];
+      const double* p = phi + r * ld + lo;
+      starts[n] = p;
+      scale4(scaled + n * size, size, qdiag_[r], p);
+    }
     for (int a0 = 0; a0 < full; a0 += 4) {
       int b0 = 0;
       for (; b0 + 8 <= a0 + 4; b0 += 8) {
         // A 4 × 8 tile: acc_i = Σ_r q_r φ_r(a0 + i) φ_r(b0 .. b0 + 7), eight independent sums
         // (the latency of one fused multiply-add chain would bound four).
         Vec4 lo0 = {}, lo1 = {}, lo2 = {}, lo3 = {}, hi0 = {}, hi1 = {}, hi2 = {}, hi3 = {};
-        for (int n = begin; n < end; ++n) {
-          const int r = rows[n];
-          const double* p = phi + r * ld + lo;
-          const double q = qdiag_[r];
+        const double* c = scaled + a0;
+        for (int n = 0; n < count; ++n, c += size) {
+          const double* p = starts[n];
           Vec4 pl, ph;
           std::memcpy(&pl, p + b0, sizeof pl);
           std::memcpy(&ph, p + b0 + 4, sizeof ph);
-          const double c0 = q * p[a0], c1 = q * p[a0 + 1], c2 = q * p[a0 + 2], c3 = q * p[a0 + 3];
-          lo0 += c0 * pl;
-          hi0 += c0 * ph;
-          lo1 += c1 * pl;
-          hi1 += c1 * ph;
-          lo2 += c2 * pl;
-          hi2 += c2 * ph;
-          lo3 += c3 * pl;
-          hi3 += c3 * ph;
+          lo0 += c[0] * pl;
+          hi0 += c[0] * ph;
+          lo1 += c[1] * pl;
+          hi1 += c[1] * ph;
+          lo2 += c[2] * pl;
+          hi2 += c[2] * ph;
+          lo3 += c[3] * pl;
+          hi3 += c[3] * ph;
         }
         const Vec4* acc[4][2] = {{&lo0, &hi0}, {&lo1, &hi1}, {&lo2, &hi2}, {&lo3, &hi3}};
         for (int i = 0; i < 4; ++i) {
@@ -797,16 +865,14 @@ void IncrementalMpc::build_cost() {
       for (; b0 <= a0; b0 += 4) {
         // A 4 × 4 tile: acc_i[j] = Σ_r q_r φ_r(a0 + i) φ_r(b0 + j).
         Vec4 acc0 = {}, acc1 = {}, acc2 = {}, acc3 = {};
-        for (int n = begin; n < end; ++n) {
-          const int r = rows[n];
-          const double* p = phi + r * ld + lo;
-          const double q = qdiag_[r];
+        const double* c = scaled + a0;
+        for (int n = 0; n < count; ++n, c += size) {
           Vec4 pb;
-          std::memcpy(&pb, p + b0, sizeof pb);
-          acc0 += (q * p[a0]) * pb;
-          acc1 += (q * p[a0 + 1]) * pb;
-          acc2 += (q * p[a0 + 2]) * pb;
-          acc3 += (q * p[a0 + 3]) * pb;
+          std::memcpy(&pb, starts[n] + b0, sizeof pb);
+          acc0 += c[0] * pb;
+          acc1 += c[1] * pb;
+          acc2 += c[2] * pb;
+          acc3 += c[3] * pb;
         }
         const Vec4* acc[4] = {&acc0, &acc1, &acc2, &acc3};
         for (int i = 0; i < 4; ++i) {
@@ -817,10 +883,9 @@ void IncrementalMpc::build_cost() {
     }
     for (int a = full; a < size; ++a) {  // the rows of the triangle below the last tile
       double* h = Hp_.data() + (lo + a) * hld + lo;
-      for (int n = begin; n < end; ++n) {
-        const int r = rows[n];
-        const double* p = phi + r * ld + lo;
-        const double c = qdiag_[r] * p[a];
+      for (int n = 0; n < count; ++n) {
+        const double* p = starts[n];
+        const double c = scaled[n * size + a];
         for (int b = 0; b <= a; ++b) h[b] += c * p[b];
       }
     }
@@ -879,10 +944,10 @@ void IncrementalMpc::assemble_qp() {
   for (int c = 0; c < nu_; ++c) {
     for (int i = 0; i < nc_; ++i) {
       const int q = c * nc_ + i;
-      const bool same = std::bit_cast<std::uint64_t>(qp_.lb[q]) ==
-                            std::bit_cast<std::uint64_t>(d.move_min(c, i)) &&
-                        std::bit_cast<std::uint64_t>(qp_.ub[q]) ==
-                            std::bit_cast<std::uint64_t>(d.move_max(c, i));
+      const bool same =
+          std::bit_cast<std::uint64_t>(qp_.lb[q]) ==
+              std::bit_cast<std::uint64_t>(d.move_min(c, i)) &&
+          std::bit_cast<std::uint64_t>(qp_.ub[q]) == std::bit_cast<std::uint64_t>(d.move_max(c, i));
       if (!same) box_changed_ |= std::uint64_t{1} << c;
       qp_.lb[q] = d.move_min(c, i);
       qp_.ub[q] = d.move_max(c, i);
@@ -1009,6 +1074,11 @@ void IncrementalMpc::assemble_soft_rows() {
       const double* __restrict r1 = rows[1];
       const double* __restrict r2 = rows[2];
       for (int p = 0; p < nU; ++p) row[p] = c0 * r0[p] + c1 * r1[p] + c2 * r2[p];
+    } else if (terms == 1) {  // level terrain
+      scale4(row, nU, coef[0], rows[0]);
+    } else if (terms == 2) {  // a threat or neighbour at the nominal's altitude
+      scale4(row, nU, coef[0], rows[0]);
+      axpy4(row, nU, coef[1], rows[1]);
     } else if (terms <= kTerms) {
       std::fill_n(row, nU, 0.0);
       for (int t = 0; t < terms; ++t) axpy(row, nU, coef[t], rows[t]);

@@ -305,15 +305,21 @@ class IncrementalMpc {
   std::vector<double> b_copy_;
   bool b_listed_ = false;
   std::vector<std::uint64_t> b_reach_;
+  // A plant of 4 to 8 states takes the free response's A_j·Δs over whole columns of A_j
+  // (dense_columns_product), not over the listed nonzeros. (The solution's simulation keeps the
+  // listing: it is compiled without the AVX2 clones, where the columns' vector code costs more.)
+  static constexpr int kMinDenseStates = 4, kMaxDenseStates = 8;
+  bool dense_ = false;
   int c_count_ = 0;
-  std::vector<char> a_pattern_;   // n_s×n_s: nonzero in some A_j
+  std::vector<char> a_pattern_;  // n_s×n_s: nonzero in some A_j
   // What changed since the last build_prediction, as masks of rows (bit k: row k; used when
   // n_s ≤ 64): the rows of each A_j whose values changed, or all if it was listed anew (Np),
-  // and the rows of the B_j of the moves (Nc); C as a whole. The sources of each row of A_j
-  // (Np·n_s) and of C (n_y): bit l where the entry in column l is nonzero. Which rows of Φ
-  // (Np·n_y) the last pass computed anew. Rows that did not change keep their values, which is
-  // valid once a pass has run with the present reaches (rows_valid_).
-  std::vector<std::uint64_t> a_changed_rows_, a_sources_, b_changed_rows_, c_sources_;
+  // and the rows of the B_j of the moves (Nc); C as a whole. The dependents of each state in
+  // A_j (Np·n_s): bit k where A_j(k, l) is nonzero, for state l; the sources of each row of C
+  // (n_y): bit l where C(k, l) is nonzero. Which rows of Φ (Np·n_y) the last pass computed
+  // anew. Rows that did not change keep their values, which is valid once a pass has run with
+  // the present reaches (rows_valid_).
+  std::vector<std::uint64_t> a_changed_rows_, a_dependents_, b_changed_rows_, c_sources_;
   std::vector<int> phi_changed_;
   // Rows of Φ changed since their range over the move box was computed (Np·n_y), and groups
   // whose rows changed since their block of H was summed (n_y); the group of each output
@@ -326,16 +332,16 @@ class IncrementalMpc {
   bool rows_valid_ = false;
 
   // Φ and Γ order their columns by input, then move (see build_prediction).
-  RowMatX Phi_;            // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
+  RowMatX Phi_;  // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
   // ((Np + 3)·n_s)×(Nc·n_u): Γ_{−1} = 0, Γ_0, …, Γ_{Np−1} (block j + 1 holds Γ_j), then two
   // alternating blocks; valid inside each row's span. A row is kept for every step, so that a
   // row that does not change is not computed again the next step, unless it changes at every
   // step: then it alternates between the last two blocks (see forward_pass).
   RowMatX Gamma_;
   std::uint64_t history_valid_ = 0;  // rows whose blocks hold the last pass's values
-  VecX Yfree_;             // Np·n_y
-  VecX qdiag_;             // Np·n_y: diagonal of Q̄
-  VecX ds_, dsn_, y_;  // n_s, n_s, n_y
+  VecX Yfree_;                       // Np·n_y
+  VecX qdiag_;                       // Np·n_y: diagonal of Q̄
+  VecX ds_, dsn_, y_;                // n_s, n_s, n_y
   // The known terms w_j of the last forward pass: a column of state_offset, or of W_ where a
   // forecast increment adds E_j·Δd_j (n_s × Np).
   MatX W_;
@@ -356,7 +362,11 @@ class IncrementalMpc {
   std::vector<int> group_rows_;                         // Np·n_y
   int groups_ = 0;
   RowMatX Hp_;  // (Nc·n_u)²: ΦᵀQ̄Φ in Φ's column order, lower triangle (a ≥ b)
-  VecX fp_;     // Nc·n_u: f_u in Φ's column order
+  // build_cost's packing of one group: its rows' starts in Φ (at the span) and their entries
+  // times q_r, one row after the other (Np·n_y rows of the span's size at most).
+  std::vector<const double*> row_starts_;
+  VecX scaled_rows_;
+  VecX fp_;             // Nc·n_u: f_u in Φ's column order
   RowMatX soft_block_;  // capacity × Nc·n_u: the kept soft rows' aᵀΦ_j in Φ's column order
   // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows).
   VecX phi_min_, phi_max_;  // Np·n_y
