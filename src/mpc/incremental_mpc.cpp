@@ -621,11 +621,12 @@ void IncrementalMpc::build_prediction() {
   forward_pass();
 }
 
-const double* IncrementalMpc::known_term(int j) {
+const double* IncrementalMpc::known_term(int j, bool zero_increment) {
   // w_j = state offset + E_j·(forecast increment). The increment is usually zero after the first
   // step (a held measurement), and E·0 would add exact zeros: then w_j is the column of the
   // offsets itself, read in place. The solution's simulation reads the same terms again.
   const IncrementalMpcData& d = data_;
+  if (zero_increment) return known_terms_[j] = d.state_offset.col(j).data();
   const double* increment = d.disturbance_delta.col(j).data();
   bool zero = true;
   for (int i = 0; i < nd_; ++i) zero = zero && increment[i] == 0.0;
@@ -694,11 +695,15 @@ void IncrementalMpc::forward_pass() {
   double* dsn = dsn_.data();
   std::copy_n(d.delta_state.data(), ns_, ds);
   y_ = d.output;
+  // The forecast increments after the first step, all zero for a held measurement: one count
+  // for all of them instead of a test a step.
+  const bool later_increments_zero =
+      count_nonzeros(d.disturbance_delta.data() + nd_, nd_ * (np_ - 1)) == 0;
   const Eigen::Index ld = Gamma_.outerStride();
   // Block b of Γ: rows b·n_s to (b + 1)·n_s.
   const auto block = [&](int b) { return Gamma_.data() + static_cast<Eigen::Index>(b) * ns_ * ld; };
   for (int j = 0; j < np_; ++j) {
-    const double* w = known_term(j);
+    const double* w = known_term(j, j > 0 && later_increments_zero);
     // Γ_{j−1}: its block (j), or the alternating block for the alternating rows (Γ_{−1} = 0,
     // block 0, for all at step 0); Γ_j's are the next ones.
     const double* previous = block(j);

@@ -262,7 +262,8 @@ class IncrementalMpc {
   RIDGELINE_SIMD_CLONES void collect_plant_nonzeros();
   void list_b_nonzeros();  // after a change of some B_j (collect_plant_nonzeros)
   // w_j of eq. 7 (n_s values), also kept in known_terms_[j] for the solution's simulation.
-  const double* known_term(int j);
+  // zero_increment: the caller knows the forecast increment Δd_j to be zero.
+  const double* known_term(int j, bool zero_increment);
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
   void write_hessian_block(int lo, int hi);
