@@ -124,9 +124,9 @@ inline __attribute__((always_inline)) void combine_row(double* __restrict dst, i
   }
 }
 
-// The number of nonzero entries of x[0..n), four lanes at a time. Inlined into
-// collect_plant_nonzeros's clones: a call through the clones' dispatcher for 49 entries cost
-// about as much as the count.
+// The number of nonzero entries of x[0..n), four lanes at a time (a NaN counts). Inlined into
+// the clones of collect_plant_nonzeros and forward_pass: a call through the clones' dispatcher
+// for 49 entries cost about as much as the count.
 inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n) {
   Mask4 counts = {};  // lane-wise: a comparison gives −1 where true
   const Vec4 zero = {};
@@ -146,7 +146,9 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
 // four-lane loads, rows 0–3 and rows rows−4 to rows−1 (overlapping when rows < 8, never past the
 // column's end), and two vector multiply-adds, instead of a loop over each row's nonzeros. Each
 // row sums in the order of the sparse loop it replaces (w first, then by column) and a zero
-// entry adds an exact zero (x finite), so the values are the same.
+// entry adds an exact zero, so the values are the same for a finite x (the sign of an exact
+// zero aside). A NaN or infinite x[l] makes every row NaN here (0·∞), only the rows reading
+// state l in the sparse loop: either way the QP that follows is rejected as not finite.
 inline __attribute__((always_inline)) void dense_columns_product(const double* M, int rows,
                                                                  int cols, const double* w,
                                                                  const double* x, double* out) {
@@ -714,9 +716,7 @@ void IncrementalMpc::forward_pass() {
     // (or B_j) that changed, and the rows that sum a changed row of Γ_{j−1}.
     std::uint64_t changed = keep ? a_changed_rows_[j] | no_history : all;
     if (j < nc_) changed |= b_changed_rows_[j];
-    // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
-    // span lies inside it (reaches are closed over A), and its entries outside its own span
-    // are exact zeros.
+    // The free increment ds_j = A_j ds_{j−1} + w_j.
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
     if (dense_) {
       dense_columns_product(d.A[j].data(), ns_, ns_, w, ds, dsn);
@@ -729,6 +729,9 @@ void IncrementalMpc::forward_pass() {
         dsn[k] = v;
       }
     }
+    // Row k of Γ_j = Σ_l A_j(k, l)·(row l of Γ_{j−1}) over the row's span: a source row's
+    // span lies inside it (reaches are closed over A), and its entries outside its own span
+    // are exact zeros.
     const auto gamma_row = [&](int k) __attribute__((always_inline)) {
       const int first = row_begin[k], end = row_begin[k + 1];
       const int lo = state_span_lo_[k];
@@ -757,8 +760,7 @@ void IncrementalMpc::forward_pass() {
     }
     previous_changed = changed;
     std::swap(ds, dsn);
-    // y_j = y_{j−1} + C ds_j row by row in scalars: ds was just written entry by entry, and a
-    // vector load of it would wait for those stores to retire instead of forwarding them.
+    // y_j = y_{j−1} + C ds_j row by row in scalars, over C's few nonzeros.
     for (int k = 0; k < ny_; ++k) {
       double v = y_[k];
       for (int ec = c_row_begin_[k]; ec < c_row_begin_[k + 1]; ++ec) {

@@ -489,6 +489,67 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
   EXPECT_GE(none, 4 * 3);
 }
 
+// The same on plants of 3, 6 and 9 states whose A_j have zeros (state k reads states k and
+// k + 1), whose first two rows change at every step (as the UAV's x and y) and one other row of
+// one A_j at some steps: the rows of Γ computed anew follow each state's dependents in A_j, with
+// the free response over the listed nonzeros (3 and 9 states) and over whole columns (6).
+TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const int ns : {3, 6, 9}) {
+    SCOPED_TRACE(ns);
+    const int nu = 2, ny = 2, np = 15, nc = 4;
+    const IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+    const IncrementalMpcDims dims{ns, nu, ny, 0, 0, 0};
+    IncrementalMpc kept(dims, o);
+    IncrementalMpcData& d = kept.data();
+    d.C = MatX::Zero(ny, ns);
+    d.C(0, 0) = 1.0;
+    d.C(1, 1) = 1.0;
+    for (int j = 0; j < np; ++j) {
+      d.A[j] = MatX::Zero(ns, ns);
+      for (int k = 0; k < ns; ++k) {
+        d.A[j](k, k) = 0.9 + 0.1 * unit(rng);
+        if (k + 1 < ns) d.A[j](k, k + 1) = 0.1 + 0.1 * unit(rng);
+      }
+      d.B[j] = MatX::Zero(ns, nu);
+      d.B[j](ns - 1, 0) = 0.1;
+      d.B[j](ns - 2, 1) = 0.2;
+    }
+    const int all_rows = (ns + ny) * np;
+    int fewer = 0;
+    for (int step = 0; step < 12; ++step) {
+      for (int j = 0; j < np; ++j) {  // the rows that change at every step
+        for (int k = 0; k < 2; ++k) d.A[j](k, k + 1) = 0.1 + 0.1 * unit(rng);
+      }
+      if (step % 3 == 1) {  // one other row of one A_j
+        const int row = 2 + static_cast<int>(unit(rng) * (ns - 2));
+        d.A[static_cast<int>(unit(rng) * np)](row, row) *= 1.0 + 0.01 * unit(rng);
+      }
+      d.delta_state = random_matrix(rng, ns, 1, 0.05);
+      d.output = random_matrix(rng, ny, 1, 5.0);
+      d.state = random_matrix(rng, ns, 1, 5.0);
+      d.reference = random_matrix(rng, ny, np, 3.0);
+      const IncrementalMpcResult& r = kept.solve();
+      IncrementalMpc fresh(dims, o);
+      fresh.data() = d;
+      const IncrementalMpcResult& f = fresh.solve();
+      SCOPED_TRACE(step);
+      ASSERT_TRUE(r.solved());
+      ASSERT_TRUE(f.solved());
+      EXPECT_EQ(f.prediction_rows_computed, all_rows);
+      fewer += r.prediction_rows_computed < all_rows ? 1 : 0;
+      EXPECT_TRUE(same_bits(kept.Phi(), fresh.Phi()));
+      EXPECT_TRUE(same_bits(kept.free_response(), fresh.free_response()));
+      EXPECT_TRUE(same_bits(kept.qp_problem().H, fresh.qp_problem().H));
+      EXPECT_TRUE(same_bits(kept.qp_problem().f, fresh.qp_problem().f));
+    }
+    // Rows were kept after the first step, except where the extra change came at step 0 of a
+    // plant whose every row then reads it (3 states).
+    EXPECT_GE(fewer, 7);
+  }
+}
+
 // Soft rows that no move within the move limits can violate are left out of the QP; the
 // solution must be the one of the QP with every row. The UAV's Jacobians along random
 // nominals, rate-limited moves, and soft rows at random distances from the free response
