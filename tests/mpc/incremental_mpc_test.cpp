@@ -8,8 +8,9 @@
 #include <cmath>
 #include <cstring>
 #include <random>
-#include <vector>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <utility>
+#include <vector>
 
 #include "core/error.hpp"
 #include "vehicle/vehicle_model.hpp"
@@ -491,8 +492,10 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
 
 // The same on plants of 3, 6 and 9 states whose A_j have zeros (state k reads states k and
 // k + 1), whose first two rows change at every step (as the UAV's x and y) and one other row of
-// one A_j at some steps: the rows of Γ computed anew follow each state's dependents in A_j, with
-// the free response over the listed nonzeros (3 and 9 states) and over whole columns (6).
+// one A_j at some steps, and whose nonzeros move at other steps (as many, in other places): the
+// listing of A_j's nonzeros follows them, and the rows of Γ computed anew follow each state's
+// dependents in A_j, with the free response over the listed nonzeros (3 and 9 states) and over
+// whole columns (6).
 TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
   std::mt19937 rng(77);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -525,6 +528,13 @@ TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
       if (step % 3 == 1) {  // one other row of one A_j
         const int row = 2 + static_cast<int>(unit(rng) * (ns - 2));
         d.A[static_cast<int>(unit(rng) * np)](row, row) *= 1.0 + 0.01 * unit(rng);
+      }
+      if (step % 4 == 2 && ns > 3) {
+        // A nonzero of one A_j moves (state k + 1 now reads k instead of k reading k + 1): as
+        // many nonzeros as before, in other places.
+        const int j = static_cast<int>(unit(rng) * np);
+        const int k = ns - 2;
+        std::swap(d.A[j](k, k + 1), d.A[j](k + 1, k));
       }
       d.delta_state = random_matrix(rng, ns, 1, 0.05);
       d.output = random_matrix(rng, ny, 1, 5.0);
