@@ -65,11 +65,20 @@ void TruthWorld::advance_to(double t_s) {
       if (u.holding || external_dynamics_) continue;
       // The wind is sampled at the step's start: its correlation time (seconds) is far
       // longer than the 5 ms step.
-      const Vec3 w = wind_.at(u.state.head<3>(), time_s_);
+      const Vec3 w = wind_at_uav(u);
       u.state = vehicle::rk4_step(u.state, u.command, w, u.truth_params, dt);
     }
     time_s_ += dt;
   }
+}
+
+const Vec3& TruthWorld::wind_at_uav(TruthUav& u) {
+  if (!(u.wind_time_s == time_s_ && u.wind_position_m == u.state.head<3>())) {
+    u.wind_position_m = u.state.head<3>();
+    u.wind_time_s = time_s_;
+    u.wind_m_s = wind_.at(u.wind_position_m, time_s_);
+  }
+  return u.wind_m_s;
 }
 
 Vec3 TruthWorld::true_wind(int uav) const { return wind_.at(true_position(uav), time_s_); }
@@ -82,7 +91,7 @@ vehicle::State TruthWorld::measured_state(int uav) {
 
 Vec3 TruthWorld::measured_wind(int uav) {
   TruthUav& u = uavs_[static_cast<std::size_t>(uav)];
-  return u.anemometer.measure(wind_, u.state.head<3>(), time_s_);
+  return u.anemometer.corrupt(wind_at_uav(u));
 }
 
 void TruthWorld::sensed_threats(int uav, std::vector<int>& out) const {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -79,7 +80,14 @@ class TruthWorld {
     double sensor_range_m;
     world::WindSensor anemometer;
     bool holding = false;
+    // The wind last evaluated for this UAV, and where and when: the anemometer's reading at a
+    // control step and the first truth step after it sample the same point (64 modes each).
+    Vec3 wind_position_m = Vec3::Zero();
+    double wind_time_s = std::numeric_limits<double>::quiet_NaN();
+    Vec3 wind_m_s = Vec3::Zero();
   };
+  /// The true wind at the UAV's position now, evaluated once per position and time.
+  const Vec3& wind_at_uav(TruthUav& u);
 
   std::shared_ptr<const world::Terrain> terrain_;
   world::WindField wind_;

@@ -70,43 +70,58 @@ WindField::WindField(const WindConfig& config) : config_(config) {
   Rng rng(derive_seed(config_.seed, kWindFieldStream));
   const double inv_length = 1.0 / config_.correlation_length_m;
   const double inv_time = 1.0 / config_.correlation_time_s;
-  modes_.reserve(static_cast<std::size_t>(n));
+  for (std::vector<double>* v :
+       {&wave_x_, &wave_y_, &wave_z_, &angular_frequency_, &cos_phase_[0], &cos_phase_[1],
+        &cos_phase_[2], &sin_phase_[0], &sin_phase_[1], &sin_phase_[2]}) {
+    v->reserve(static_cast<std::size_t>(n));
+  }
   for (int i = 0; i < n; ++i) {
-    Mode mode;
     // Draw order is part of the reproducibility contract: k (x, y, z), ω, phases (x, y, z).
-    const double kx = rng.normal(0.0, inv_length);
-    const double ky = rng.normal(0.0, inv_length);
-    const double kz = rng.normal(0.0, inv_length);
-    mode.wave_vector_rad_m = Vec3(kx, ky, kz);
-    mode.angular_frequency_rad_s = rng.normal(0.0, inv_time);
+    wave_x_.push_back(rng.normal(0.0, inv_length));
+    wave_y_.push_back(rng.normal(0.0, inv_length));
+    wave_z_.push_back(rng.normal(0.0, inv_length));
+    angular_frequency_.push_back(rng.normal(0.0, inv_time));
     for (int c = 0; c < 3; ++c) {
       const double phase = rng.uniform(0.0, 2.0 * kPi);
-      mode.cos_phase[c] = std::cos(phase);
-      mode.sin_phase[c] = std::sin(phase);
+      cos_phase_[c].push_back(std::cos(phase));
+      sin_phase_[c].push_back(std::sin(phase));
     }
-    modes_.push_back(mode);
   }
 }
 
 Vec3 WindField::gust_at(const Vec3& p_m, double t_s) const {
   if (config_.gust_std_m_s == 0.0) return Vec3::Zero();
-  Vec3 sum = Vec3::Zero();
   double theta[kModeBatch], sin_theta[kModeBatch], cos_theta[kModeBatch];
-  const int n = static_cast<int>(modes_.size());
+  const int n = static_cast<int>(wave_x_.size());
+  const double px = p_m.x(), py = p_m.y(), pz = p_m.z();
+  double sx = 0.0, sy = 0.0, sz = 0.0;
   for (int begin = 0; begin < n; begin += kModeBatch) {
     const int count = std::min(kModeBatch, n - begin);
+    // θ_n = k_n·p − ω_n t, the dot product summed x, y, z in that order (element-wise over the
+    // modes, so the compiler's vector code gives the same values).
+    const double* kx = wave_x_.data() + begin;
+    const double* ky = wave_y_.data() + begin;
+    const double* kz = wave_z_.data() + begin;
+    const double* omega = angular_frequency_.data() + begin;
     for (int i = 0; i < count; ++i) {
-      const Mode& mode = modes_[static_cast<std::size_t>(begin + i)];
-      theta[i] = mode.wave_vector_rad_m.dot(p_m) - mode.angular_frequency_rad_s * t_s;
+      theta[i] = kx[i] * px + ky[i] * py + kz[i] * pz - omega[i] * t_s;
     }
     sin_cos(theta, sin_theta, cos_theta, count);
+    // Σ cos(θ_n + φ_{n,c}), eq. W1, summed over the modes in order.
+    const double* cx = cos_phase_[0].data() + begin;
+    const double* cy = cos_phase_[1].data() + begin;
+    const double* cz = cos_phase_[2].data() + begin;
+    const double* sxp = sin_phase_[0].data() + begin;
+    const double* syp = sin_phase_[1].data() + begin;
+    const double* szp = sin_phase_[2].data() + begin;
     for (int i = 0; i < count; ++i) {
-      const Mode& mode = modes_[static_cast<std::size_t>(begin + i)];
-      // cos(θ + φ_c), eq. W1
-      sum += cos_theta[i] * mode.cos_phase - sin_theta[i] * mode.sin_phase;
+      const double c = cos_theta[i], s = sin_theta[i];
+      sx += c * cx[i] - s * sxp[i];
+      sy += c * cy[i] - s * syp[i];
+      sz += c * cz[i] - s * szp[i];
     }
   }
-  return amplitude_.cwiseProduct(sum);
+  return Vec3(amplitude_.x() * sx, amplitude_.y() * sy, amplitude_.z() * sz);
 }
 
 Vec3 WindField::at(const Vec3& p_m, double t_s) const {

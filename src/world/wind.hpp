@@ -94,19 +94,15 @@ class WindField {
   const WindConfig& config() const { return config_; }
 
  private:
-  struct Mode {
-    Vec3 wave_vector_rad_m;
-    double angular_frequency_rad_s;
-    // cos φ and sin φ of the phase of each component, precomputed so that
-    // cos(θ + φ) = cos θ cos φ − sin θ sin φ needs one sin/cos pair a mode.
-    Vec3 cos_phase;
-    Vec3 sin_phase;
-  };
-
   WindConfig config_;
   Vec3 gust_std_;   // σ_c
   Vec3 amplitude_;  // A_c = σ_c √(2/N)
-  std::vector<Mode> modes_;
+  // The modes, one array a parameter (the evaluation's loops run over the modes, two at a
+  // time): wave vectors k_n (x, y, z), angular frequencies ω_n, and cos φ and sin φ of each
+  // component's phase, precomputed so that cos(θ + φ) = cos θ cos φ − sin θ sin φ needs one
+  // sin/cos pair a mode.
+  std::vector<double> wave_x_, wave_y_, wave_z_, angular_frequency_;
+  std::vector<double> cos_phase_[3], sin_phase_[3];
 };
 
 /// An anemometer: reading = truth + n, n ~ N(0, σ_n² I) with σ_n = measurement_noise_m_s,

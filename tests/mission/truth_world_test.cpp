@@ -37,6 +37,31 @@ TEST(TruthWorld, SteadyFlightDriftsWithTheWindAndReachesEveryTimeExactly) {
   EXPECT_NEAR((world.measured_wind(0) - Vec3(1, 2, 0)).norm(), 0.0, 1e-12);
 }
 
+// The anemometer's reading and the dynamics share one evaluation of the gusty wind per
+// position and time: the reading must be the field's value where the UAV is now (after it
+// moved, after its state was set elsewhere at the same time), and reading it must not change
+// the flight.
+TEST(TruthWorld, WindReadingsFollowTheUavAndLeaveTheFlightUnchanged) {
+  mission::Scenario s = one_uav_scenario();
+  s.wind.gust_std_m_s = 3.0;
+  mission::TruthWorld read(s, flat()), unread(s, flat());
+  const auto truth_at_uav = [&] { return read.wind().at(read.true_position(0), read.time_s()); };
+  for (int k = 1; k <= 50; ++k) {
+    ASSERT_EQ(read.measured_wind(0), truth_at_uav()) << k;
+    read.set_command(0, vehicle::Input(10.0 + 0.05 * k, 0.01 * k, 0.2));
+    unread.set_command(0, vehicle::Input(10.0 + 0.05 * k, 0.01 * k, 0.2));
+    read.advance_to(0.02 * k);
+    unread.advance_to(0.02 * k);
+    ASSERT_EQ(read.true_state(0), unread.true_state(0)) << k;  // bit for bit
+  }
+  const Vec3 before = read.measured_wind(0);
+  vehicle::State moved = read.true_state(0);
+  moved.x() += 150.0;  // same time, another place
+  read.set_state(0, moved);
+  EXPECT_EQ(read.measured_wind(0), truth_at_uav());
+  EXPECT_NE(read.measured_wind(0), before);
+}
+
 TEST(TruthWorld, TruthLagsAreTheControllersScaledForModelMismatch) {
   mission::Scenario s = one_uav_scenario();
   s.simulation.truth_time_constant_scale = 2.0;
