@@ -1029,28 +1029,38 @@ void IncrementalMpc::assemble_soft_rows() {
     phi_min_[r] = row_min;
     phi_max_[r] = row_max;
   }
-  kept_count_ = 0;
-  for (int r = 0; r < d.soft_row_count; ++r) {
-    const int j = d.soft_step[r];
-    double bound = d.soft_bound[r];
-    double lowest = 0.0;  // ≤ min of aᵀΦ_j ΔU over the box
-    double scale = 1.0;   // of the terms summed, for the margin below
-    for (int k = 0; k < ny_; ++k) {
-      const double a = d.soft_normal(k, r);
-      if (a == 0.0) continue;
-      const double free = a * Yfree_[j * ny_ + k];
-      const double lo = phi_min_[j * ny_ + k], hi = phi_max_[j * ny_ + k];
-      bound -= free;
-      lowest += a * (a > 0.0 ? lo : hi);
-      scale += std::abs(free) + std::abs(a) * std::max(std::abs(lo), std::abs(hi));
+  // The rows that can be violated. `outputs` is n_y, a constant for the UAV's three outputs
+  // (the loop over a row's terms then unrolls).
+  const auto keep_rows = [&](const int outputs) __attribute__((always_inline)) {
+    kept_count_ = 0;
+    const double* normals = d.soft_normal.data();  // column-major n_y×capacity
+    for (int r = 0; r < d.soft_row_count; ++r) {
+      const int j = d.soft_step[r];
+      double bound = d.soft_bound[r];
+      double lowest = 0.0;  // ≤ min of aᵀΦ_j ΔU over the box
+      double scale = 1.0;   // of the terms summed, for the margin below
+      for (int k = 0; k < outputs; ++k) {
+        const double a = normals[r * outputs + k];
+        if (a == 0.0) continue;
+        const double free = a * Yfree_[j * outputs + k];
+        const double lo = phi_min_[j * outputs + k], hi = phi_max_[j * outputs + k];
+        bound -= free;
+        lowest += a * (a > 0.0 ? lo : hi);
+        scale += std::abs(free) + std::abs(a) * std::max(std::abs(lo), std::abs(hi));
+      }
+      // The margin keeps a row whose redundancy is within the sums' round-off.
+      if (options_.drop_redundant_soft_rows &&
+          lowest - bound > 1e-9 * (scale + std::abs(d.soft_bound[r]))) {
+        continue;
+      }
+      kept_rows_[kept_count_] = r;
+      kept_bounds_[kept_count_++] = bound;
     }
-    // The margin keeps a row whose redundancy is within the sums' round-off.
-    if (options_.drop_redundant_soft_rows &&
-        lowest - bound > 1e-9 * (scale + std::abs(d.soft_bound[r]))) {
-      continue;
-    }
-    kept_rows_[kept_count_] = r;
-    kept_bounds_[kept_count_++] = bound;
+  };
+  if (ny_ == 3) {
+    keep_rows(3);
+  } else {
+    keep_rows(ny_);
   }
 
   resize_soft_rows(kept_count_);
