@@ -1067,47 +1067,56 @@ void IncrementalMpc::assemble_soft_rows() {
   // Each kept row aᵀΦ_j is summed contiguously in Φ's column order into a row of soft_block_
   // (vector loops); G is column-major, so the block is then moved column by column, each
   // QP column a contiguous run of G, the slack columns last.
-  for (int s = 0; s < kept_count_; ++s) {
-    const int r = kept_rows_[s];
-    const int j = d.soft_step[r];
-    // The rows of Φ_j the soft row reads (a_k ≠ 0). Φ_j's entries outside a reach or right of
-    // the moves started by step j are exact zeros, so every entry of the soft row can sum all
-    // of them.
-    constexpr int kTerms = 4;
-    const double* rows[kTerms] = {};
-    double coef[kTerms] = {};
-    int terms = 0;
-    for (int k = 0; k < ny_; ++k) {
-      const double a = d.soft_normal(k, r);
-      if (a == 0.0) continue;
-      if (terms < kTerms) rows[terms] = Phi_.row(j * ny_ + k).data();
-      if (terms < kTerms) coef[terms] = a;
-      ++terms;
-    }
-    double* __restrict row = soft_block_.row(s).data();
-    if (terms == 3) {  // the UAV's threat, neighbour and sloped terrain rows
-      const double c0 = coef[0], c1 = coef[1], c2 = coef[2];
-      const double* __restrict r0 = rows[0];
-      const double* __restrict r1 = rows[1];
-      const double* __restrict r2 = rows[2];
-      for (int p = 0; p < nU; ++p) row[p] = c0 * r0[p] + c1 * r1[p] + c2 * r2[p];
-    } else if (terms == 1) {  // level terrain
-      scale4(row, nU, coef[0], rows[0]);
-    } else if (terms == 2) {  // a threat or neighbour at the nominal's altitude
-      scale4(row, nU, coef[0], rows[0]);
-      axpy4(row, nU, coef[1], rows[1]);
-    } else if (terms <= kTerms) {
-      std::fill_n(row, nU, 0.0);
-      for (int t = 0; t < terms; ++t) axpy(row, nU, coef[t], rows[t]);
-    } else {
-      std::fill_n(row, nU, 0.0);
-      for (int k = 0; k < ny_; ++k) {
-        const double a = d.soft_normal(k, r);
+  // (`outputs` is n_y, a constant for the UAV's three, as in keep_rows.)
+  const auto sum_kept_rows = [&](const int outputs) __attribute__((always_inline)) {
+    const double* normals = d.soft_normal.data();
+    for (int s = 0; s < kept_count_; ++s) {
+      const int r = kept_rows_[s];
+      const int j = d.soft_step[r];
+      // The rows of Φ_j the soft row reads (a_k ≠ 0). Φ_j's entries outside a reach or right of
+      // the moves started by step j are exact zeros, so every entry of the soft row can sum all
+      // of them.
+      constexpr int kTerms = 4;
+      const double* rows[kTerms] = {};
+      double coef[kTerms] = {};
+      int terms = 0;
+      for (int k = 0; k < outputs; ++k) {
+        const double a = normals[r * outputs + k];
         if (a == 0.0) continue;
-        const int lo = output_span_lo_[k];
-        axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * ny_ + k).data() + lo);
+        if (terms < kTerms) rows[terms] = Phi_.row(j * outputs + k).data();
+        if (terms < kTerms) coef[terms] = a;
+        ++terms;
+      }
+      double* __restrict row = soft_block_.row(s).data();
+      if (terms == 3) {  // the UAV's threat, neighbour and sloped terrain rows
+        const double c0 = coef[0], c1 = coef[1], c2 = coef[2];
+        const double* __restrict r0 = rows[0];
+        const double* __restrict r1 = rows[1];
+        const double* __restrict r2 = rows[2];
+        for (int p = 0; p < nU; ++p) row[p] = c0 * r0[p] + c1 * r1[p] + c2 * r2[p];
+      } else if (terms == 1) {  // level terrain
+        scale4(row, nU, coef[0], rows[0]);
+      } else if (terms == 2) {  // a threat or neighbour at the nominal's altitude
+        scale4(row, nU, coef[0], rows[0]);
+        axpy4(row, nU, coef[1], rows[1]);
+      } else if (terms <= kTerms) {
+        std::fill_n(row, nU, 0.0);
+        for (int t = 0; t < terms; ++t) axpy(row, nU, coef[t], rows[t]);
+      } else {
+        std::fill_n(row, nU, 0.0);
+        for (int k = 0; k < outputs; ++k) {
+          const double a = normals[r * outputs + k];
+          if (a == 0.0) continue;
+          const int lo = output_span_lo_[k];
+          axpy(row + lo, output_span_hi_[k] - lo, a, Phi_.row(j * outputs + k).data() + lo);
+        }
       }
     }
+  };
+  if (ny_ == 3) {
+    sum_kept_rows(3);
+  } else {
+    sum_kept_rows(ny_);
   }
   const int first = soft_rows_begin_, kept = kept_count_;
   // Padding rows that held a soft row last time (previous_count_ of them lead the QP's soft
