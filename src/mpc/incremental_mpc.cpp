@@ -992,10 +992,11 @@ void IncrementalMpc::assemble_soft_rows() {
   //
   // A row's range is computed again only if the row or the box over its inputs changed.
   const Eigen::Index ld = Phi_.outerStride();
-  for (int r = 0; r < np_ * ny_ && options_.drop_redundant_soft_rows; ++r) {
-    if (range_stale_[r] == 0 && (box_changed_ & output_reach_[r % ny_]) == 0) continue;
+  for (int r = 0, k = 0; r < np_ * ny_ && options_.drop_redundant_soft_rows;
+       ++r, k = k + 1 == ny_ ? 0 : k + 1) {  // k = r mod n_y, the row's output
+    if (range_stale_[r] == 0 && (box_changed_ & output_reach_[k]) == 0) continue;
     range_stale_[r] = 0;
-    const int lo = output_span_lo_[r % ny_], size = output_span_hi_[r % ny_] - lo;
+    const int lo = output_span_lo_[k], size = output_span_hi_[k] - lo;
     const double* p = Phi_.data() + r * ld + lo;
     const double* bl = qp_.lb.data() + lo;  // the move box, in Φ's column order too
     const double* bh = qp_.ub.data() + lo;
