@@ -114,8 +114,8 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   IncrementalMpcData& d = mpc_.data();
   d.C.setZero();
   d.C.leftCols(3).setIdentity();  // y = p (DESIGN §3)
-  const vehicle::Jacobians J = vehicle::discrete_jacobians(
-      vehicle::State::Zero(), options.vehicle, options.prediction_step_s);
+  const vehicle::Jacobians J = vehicle::discrete_jacobians(vehicle::State::Zero(), options.vehicle,
+                                                           options.prediction_step_s);
   for (int j = 0; j < np_; ++j) {
     d.A[j] = J.A;  // the state-independent entries; step() rewrites the others
     d.B[j] = J.B;
@@ -232,14 +232,21 @@ void UavTracker::build_nominal(double t_s, const vehicle::State& state,
 
   // Sample j (time t + j·dt) gives the nominal state j (j < Np) and the nominal position of
   // the constraints j − 1, both from one look-up of the previous prediction.
-  nominal_states_.col(0) = state;
+  // The columns are written through fixed-size maps: an assignment to a column of a dynamic
+  // matrix is a copy of run-time length, which the compiler makes a call of memcpy (four a
+  // sample, 1 % of a flight's instructions).
+  const auto state_column = [this](int j) {
+    return Eigen::Map<vehicle::State>(nominal_states_.col(j).data());
+  };
+  state_column(0) = state;
   double heading = state[kPsi];
   for (int j = 1; j <= np_; ++j) {
     const double tau = t_s + j * dt;
     vehicle::State previous = vehicle::State::Zero();  // written when have_previous
     const bool have_previous = previous_state_at(tau, previous);
     const ReferencePoint& r = reference_points_[j];
-    nominal_positions_.col(j - 1) = have_previous ? Vec3(previous.head<3>()) : r.position_m;
+    Eigen::Map<Vec3>(nominal_positions_.col(j - 1).data()) =
+        have_previous ? Vec3(previous.head<3>()) : r.position_m;
     if (j == np_) break;
     vehicle::State s;
     if (options_.linearization == LinearizationPoint::kPreviousPrediction && have_previous) {
@@ -249,7 +256,7 @@ void UavTracker::build_nominal(double t_s, const vehicle::State& state,
     }
     heading += wrap_angle(s[kPsi] - heading);  // unwrap relative to the state (see header)
     s[kPsi] = heading;
-    nominal_states_.col(j) = s;
+    state_column(j) = s;
   }
 }
 
@@ -266,7 +273,7 @@ void UavTracker::set_limits(const vehicle::State& state) {
     const double v_nominal = i == 0 ? state[kV] : nominal_states_(kV, i);
     const double speed = std::max(v_nominal, p.min_speed_m_s());
     const double max_turn = p.max_turn_rate_rad_s(speed);  // eq. 3
-    d.input_min(kSpeedCmd, i) = p.min_speed_m_s();  // eq. 2
+    d.input_min(kSpeedCmd, i) = p.min_speed_m_s();         // eq. 2
     d.input_max(kSpeedCmd, i) = p.max_speed_m_s();
     d.input_min(kTurnRateCmd, i) = -max_turn;
     d.input_max(kTurnRateCmd, i) = max_turn;
@@ -484,7 +491,9 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   have_previous_prediction_ = true;
   push_history(HistoryEntry{t_s, state, measured_wind_m_s, u_cmd});
   previous_command_ = u_cmd;
-  const auto us = [](Clock::duration d) { return std::chrono::duration<double, std::micro>(d).count(); };
+  const auto us = [](Clock::duration d) {
+    return std::chrono::duration<double, std::micro>(d).count();
+  };
   result_.step_time_us = us(Clock::now() - start);
   UavTrackerStepParts& parts = result_.parts;
   parts.linearization_us = us(linearized - start);
