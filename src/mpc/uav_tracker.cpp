@@ -116,6 +116,10 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   d.C.leftCols(3).setIdentity();  // y = p (DESIGN §3)
   const vehicle::Jacobians J = vehicle::discrete_jacobians(vehicle::State::Zero(), options.vehicle,
                                                            options.prediction_step_s);
+  // The wind increments and state offsets after the first step are zero (a held measurement,
+  // one command between steps); step() writes the first columns only.
+  d.disturbance_delta.setZero();
+  d.state_offset.setZero();
   for (int j = 0; j < np_; ++j) {
     d.A[j] = J.A;  // the state-independent entries; step() rewrites the others
     d.B[j] = J.B;
@@ -446,10 +450,10 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   // constructor wrote them once.
   vehicle::update_discrete_state_jacobians(nominal_states_, dt, d.A);
   for (int j = 0; j < np_; ++j) d.reference.col(j) = reference_points_[j + 1].position_m;
-  d.disturbance_delta.setZero();
-  d.disturbance_delta.col(0) = delta_wind;
-  d.state_offset.setZero();
-  d.state_offset.col(0).noalias() = d.B[0] * (u_prev - mean_command);
+  // Only the first columns are ever written (the constructor zeroed the others).
+  Eigen::Map<Vec3>(d.disturbance_delta.col(0).data()) = delta_wind;
+  Eigen::Map<vehicle::State>(d.state_offset.col(0).data()).noalias() =
+      d.B[0] * (u_prev - mean_command);
   const auto linearized = Clock::now();
 
   // 5–6. Limits and soft rows.
