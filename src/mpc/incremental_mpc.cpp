@@ -1194,7 +1194,8 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   result_.max_slack = ng_ > 0 ? result_.slack.maxCoeff() : 0.0;
 
   // Predicted outputs and states under ΔU: step the augmented system (eq. 7) directly, over
-  // the nonzeros of A_j listed by build_prediction().
+  // whole columns of A_j and B_j for a plant of 4 to 8 states, else over the nonzeros listed by
+  // build_prediction().
   double* ds = ds_.data();
   double* dsn = dsn_.data();
   std::copy_n(d.delta_state.data(), ns_, ds);
@@ -1211,20 +1212,37 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
     // For a move, w + B_j Δu_j first, each row's product over B_j's nonzeros summed first.
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
     const int* b_row_begin = j < nc_ ? &b_row_begin_[static_cast<std::size_t>(j) * ns_] : nullptr;
-    for (int k = 0; k < ns_; ++k) {
-      double v = w[k];
-      if (b_row_begin != nullptr && b_row_begin[k] != b_row_begin[k + 1]) {
-        double t = 0.0;
-        for (int e = b_row_begin[k]; e < b_row_begin[k + 1]; ++e) {
-          t += b_entries_[e].value * du[b_entries_[e].col];
+    if (dense_) {
+      // A plant of 4 to 8 states over whole columns, as the forward pass: B_j Δu_j first (a
+      // zero entry adds an exact zero), then w + it, then A_j ds in column order: the sums of
+      // the loop below, term for term (the sign of an exact zero aside).
+      double* v = dsn;
+      if (j < nc_) {
+        const double zero[kMaxDenseStates] = {};
+        double bu[kMaxDenseStates];
+        dense_columns_product(d.B[j].data(), ns_, nu_, zero, du, bu);
+        for (int k = 0; k < ns_; ++k) bu[k] = w[k] + bu[k];
+        dense_columns_product(d.A[j].data(), ns_, ns_, bu, ds, v);
+      } else {
+        dense_columns_product(d.A[j].data(), ns_, ns_, w, ds, v);
+      }
+      for (int k = 0; k < ns_; ++k) s[k] = s_prev[k] + v[k];
+    } else {
+      for (int k = 0; k < ns_; ++k) {
+        double v = w[k];
+        if (b_row_begin != nullptr && b_row_begin[k] != b_row_begin[k + 1]) {
+          double t = 0.0;
+          for (int e = b_row_begin[k]; e < b_row_begin[k + 1]; ++e) {
+            t += b_entries_[e].value * du[b_entries_[e].col];
+          }
+          v += t;
         }
-        v += t;
+        for (int e = row_begin[k]; e < row_begin[k + 1]; ++e) {
+          v += a_entries_[e].value * ds[a_entries_[e].col];
+        }
+        dsn[k] = v;
+        s[k] = s_prev[k] + v;
       }
-      for (int e = row_begin[k]; e < row_begin[k + 1]; ++e) {
-        v += a_entries_[e].value * ds[a_entries_[e].col];
-      }
-      dsn[k] = v;
-      s[k] = s_prev[k] + v;
     }
     std::swap(ds, dsn);
     for (int k = 0; k < ny_; ++k) {

@@ -268,7 +268,11 @@ class IncrementalMpc {
   RIDGELINE_SIMD_CLONES void build_cost();
   void write_hessian_block(int lo, int hi);
   RIDGELINE_SIMD_CLONES void assemble_soft_rows();
-  void extract_solution(const qp::QpResult& qp_result);
+  // Cloned as the others (its whole-column products in AVX2) but without fused multiply-adds:
+  // each product rounds before it is added, as in the baseline code it replaced, so the
+  // predictions (and the next step's nominal built on them) are the same to the bit.
+  RIDGELINE_SIMD_CLONES __attribute__((optimize("fp-contract=off"))) void extract_solution(
+      const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
   void renumber_soft_rows(int old_soft_rows_in_qp);
 
@@ -306,9 +310,8 @@ class IncrementalMpc {
   std::vector<double> b_copy_;
   bool b_listed_ = false;
   std::vector<std::uint64_t> b_reach_;
-  // A plant of 4 to 8 states takes the free response's A_j·Δs over whole columns of A_j
-  // (dense_columns_product), not over the listed nonzeros. (The solution's simulation keeps the
-  // listing: it is compiled without the AVX2 clones, where the columns' vector code costs more.)
+  // A plant of 4 to 8 states takes the free response's A_j·Δs, and the solution's simulation
+  // A_j·Δs and B_j·Δu, over whole columns (dense_columns_product), not over the listed nonzeros.
   static constexpr int kMinDenseStates = 4, kMaxDenseStates = 8;
   bool dense_ = false;
   int c_count_ = 0;

@@ -560,6 +560,74 @@ TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
   }
 }
 
+// A plant of 4 to 8 states takes its free response and its solution's prediction over whole
+// columns of A_j and B_j; one of more states over the listed nonzeros. The same 6-state plant,
+// alone and with three uncoupled states appended (9 states), must give the same moves and the
+// same predicted states and outputs bit for bit, step after step as A_j changes: the two sum the
+// same products in the same order.
+TEST(IncrementalMpcPrediction, WholeColumnsEqualTheListedNonzerosBitForBit) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int ns = 6, extra = 3, nu = 2, ny = 2, nd = 1, np = 12, nc = 4;
+  const IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+  IncrementalMpc small(IncrementalMpcDims{ns, nu, ny, nd, 0, 0}, o);
+  IncrementalMpc large(IncrementalMpcDims{ns + extra, nu, ny, nd, 0, 0}, o);
+  IncrementalMpcData& a = small.data();
+  IncrementalMpcData& b = large.data();
+  a.C = MatX::Zero(ny, ns);
+  a.C(0, 0) = 1.0;
+  a.C(1, 2) = 1.0;
+  b.C = MatX::Zero(ny, ns + extra);
+  b.C.leftCols(ns) = a.C;
+  for (int j = 0; j < np; ++j) {
+    a.B[j] = MatX::Zero(ns, nu);
+    a.B[j](ns - 1, 0) = 0.1;
+    a.B[j](ns - 2, 1) = 0.2;
+    a.B[j](ns - 3, 1) = -0.05;
+    a.E[j] = random_matrix(rng, ns, nd, 0.1);
+    b.B[j] = MatX::Zero(ns + extra, nu);
+    b.B[j].topRows(ns) = a.B[j];
+    b.E[j] = MatX::Zero(ns + extra, nd);
+    b.E[j].topRows(ns) = a.E[j];
+  }
+  for (int step = 0; step < 8; ++step) {
+    for (int j = 0; j < np; ++j) {
+      a.A[j] = MatX::Zero(ns, ns);
+      for (int k = 0; k < ns; ++k) {
+        a.A[j](k, k) = 0.9 + 0.1 * unit(rng);
+        if (k + 1 < ns) a.A[j](k, k + 1) = 0.1 + 0.1 * unit(rng);
+      }
+      b.A[j] = MatX::Zero(ns + extra, ns + extra);
+      b.A[j].topLeftCorner(ns, ns) = a.A[j];
+      b.A[j].bottomRightCorner(extra, extra) = 0.5 * MatX::Identity(extra, extra);
+    }
+    a.delta_state = random_matrix(rng, ns, 1, 0.05);
+    a.state = random_matrix(rng, ns, 1, 5.0);
+    a.output = a.C * a.state;
+    a.reference = random_matrix(rng, ny, np, 3.0);
+    a.disturbance_delta = random_matrix(rng, nd, np, 0.1);
+    a.state_offset = random_matrix(rng, ns, np, 0.01);
+    b.delta_state = VecX::Zero(ns + extra);
+    b.delta_state.head(ns) = a.delta_state;
+    b.state = VecX::Zero(ns + extra);
+    b.state.head(ns) = a.state;
+    b.output = a.output;
+    b.reference = a.reference;
+    b.disturbance_delta = a.disturbance_delta;
+    b.state_offset = MatX::Zero(ns + extra, np);
+    b.state_offset.topRows(ns) = a.state_offset;
+    const IncrementalMpcResult& ra = small.solve();
+    const IncrementalMpcResult& rb = large.solve();
+    SCOPED_TRACE(step);
+    ASSERT_TRUE(ra.solved());
+    ASSERT_TRUE(rb.solved());
+    EXPECT_TRUE(same_bits(ra.moves, rb.moves));
+    EXPECT_TRUE(same_bits(ra.predicted_outputs, rb.predicted_outputs));
+    EXPECT_TRUE(same_bits(ra.predicted_states, MatX(rb.predicted_states.topRows(ns))));
+    EXPECT_GT(ra.moves.cwiseAbs().maxCoeff(), 0.0);  // the prediction depends on the moves
+  }
+}
+
 // Soft rows that no move within the move limits can violate are left out of the QP; the
 // solution must be the one of the QP with every row. The UAV's Jacobians along random
 // nominals, rate-limited moves, and soft rows at random distances from the free response
