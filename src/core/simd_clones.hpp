@@ -7,6 +7,8 @@
 //
 // The two clones agree to round-off, not bit for bit: in the x86-64-v3 clone GCC contracts
 // a·b + c into fused multiply-adds (its default for C++), which round once instead of twice.
+// A function that must round as the baseline does adds RIDGELINE_NO_CONTRACTION (contraction
+// off for that function only; where there are no clones, it leaves the compiler's default).
 // Sums are not reordered (no -ffast-math), so a vectorized loop must be element-wise: a
 // floating-point reduction stays scalar. Eigen's own kernels inside such a function stay SSE2
 // (Eigen picks its packets at compile time), so the hot loops are written by hand.
@@ -14,8 +16,10 @@
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 #define RIDGELINE_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define RIDGELINE_NO_CONTRACTION __attribute__((optimize("fp-contract=off")))
 #else
 #define RIDGELINE_SIMD_CLONES
+#define RIDGELINE_NO_CONTRACTION
 #endif
 
 namespace ridgeline {

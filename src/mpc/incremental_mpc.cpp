@@ -148,7 +148,8 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
 // row sums in the order of the sparse loop it replaces (w first, then by column) and a zero
 // entry adds an exact zero, so the values are the same for a finite x (the sign of an exact
 // zero aside). A NaN or infinite x[l] makes every row NaN here (0·∞), only the rows reading
-// state l in the sparse loop: either way the QP that follows is rejected as not finite.
+// state l in the sparse loop: in the free response the QP that follows is rejected as not
+// finite either way, and the solution's simulation then reports NaN predictions either way.
 inline __attribute__((always_inline)) void dense_columns_product(const double* M, int rows,
                                                                  int cols, const double* w,
                                                                  const double* x, double* out) {
@@ -435,9 +436,9 @@ std::string_view IncrementalMpc::check_data() const {
 }
 
 void IncrementalMpc::collect_plant_nonzeros() {
-  // Plant matrices such as I + Δt·A_c are mostly zeros (13 of 49 entries for the UAV), and
-  // the forward pass and the solution's simulation both multiply by every A_j: listing the
-  // nonzeros once lets both skip the zeros without testing them again.
+  // Plant matrices such as I + Δt·A_c are mostly zeros (13 of 49 entries for the UAV): listing
+  // the nonzeros once lets the rows of Γ (and, for plants outside 4 to 8 states, the free
+  // response and the solution's simulation) skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
   int n = 0;
   bool same = true;  // every A_j so far has the nonzero positions listed by the last call
@@ -1207,9 +1208,6 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
   for (int j = 0; j < np_; ++j) {
     const double* w = known_terms_[j];  // as the forward pass of this solve found them
     const double* du = result_.moves.data() + j * nu_;
-    // Row by row in scalars (the entries are listed by row): each value is used right where
-    // it is computed, never reloaded as a vector from scalar stores (a store-forwarding stall).
-    // For a move, w + B_j Δu_j first, each row's product over B_j's nonzeros summed first.
     const int* row_begin = &a_row_begin_[static_cast<std::size_t>(j) * ns_];
     const int* b_row_begin = j < nc_ ? &b_row_begin_[static_cast<std::size_t>(j) * ns_] : nullptr;
     if (dense_) {
@@ -1228,6 +1226,10 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
       }
       for (int k = 0; k < ns_; ++k) s[k] = s_prev[k] + v[k];
     } else {
+      // Row by row in scalars (the entries are listed by row): each value is used right where
+      // it is computed, never reloaded as a vector from scalar stores (a store-forwarding
+      // stall). For a move, w + B_j Δu_j first, each row's product over B_j's nonzeros summed
+      // first.
       for (int k = 0; k < ns_; ++k) {
         double v = w[k];
         if (b_row_begin != nullptr && b_row_begin[k] != b_row_begin[k + 1]) {

@@ -271,7 +271,7 @@ class IncrementalMpc {
   // Cloned as the others (its whole-column products in AVX2) but without fused multiply-adds:
   // each product rounds before it is added, as in the baseline code it replaced, so the
   // predictions (and the next step's nominal built on them) are the same to the bit.
-  RIDGELINE_SIMD_CLONES __attribute__((optimize("fp-contract=off"))) void extract_solution(
+  RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void extract_solution(
       const qp::QpResult& qp_result);
   void resize_soft_rows(int needed);
   void renumber_soft_rows(int old_soft_rows_in_qp);

@@ -39,8 +39,8 @@ TEST(TruthWorld, SteadyFlightDriftsWithTheWindAndReachesEveryTimeExactly) {
 
 // The anemometer's reading and the dynamics share one evaluation of the gusty wind per
 // position and time: the reading must be the field's value where the UAV is now (after it
-// moved, after its state was set elsewhere at the same time), and reading it must not change
-// the flight.
+// moved, after its state was set elsewhere at the same time, while it holds its position as the
+// time moves on), and reading it must not change the flight.
 TEST(TruthWorld, WindReadingsFollowTheUavAndLeaveTheFlightUnchanged) {
   mission::Scenario s = one_uav_scenario();
   s.wind.gust_std_m_s = 3.0;
@@ -60,6 +60,12 @@ TEST(TruthWorld, WindReadingsFollowTheUavAndLeaveTheFlightUnchanged) {
   read.set_state(0, moved);
   EXPECT_EQ(read.measured_wind(0), truth_at_uav());
   EXPECT_NE(read.measured_wind(0), before);
+  // Holding, the UAV stays where it is while the time moves on: the gusts change there.
+  read.hold(0);
+  const Vec3 held = read.measured_wind(0);
+  read.advance_to(read.time_s() + 2.0);
+  EXPECT_EQ(read.measured_wind(0), truth_at_uav());
+  EXPECT_NE(read.measured_wind(0), held);
 }
 
 TEST(TruthWorld, TruthLagsAreTheControllersScaledForModelMismatch) {

@@ -560,8 +560,8 @@ TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
   }
 }
 
-// A plant of 4 to 8 states takes its free response and its solution's prediction over whole
-// columns of A_j and B_j; one of more states over the listed nonzeros. The same 6-state plant,
+// A plant of 4 to 8 states takes its free response (A_j) and its solution's prediction (A_j and
+// B_j) over whole columns; one of more states over the listed nonzeros. The same 6-state plant,
 // alone and with three uncoupled states appended (9 states), must give the same moves and the
 // same predicted states and outputs bit for bit, step after step as A_j changes: the two sum the
 // same products in the same order.
@@ -625,6 +625,71 @@ TEST(IncrementalMpcPrediction, WholeColumnsEqualTheListedNonzerosBitForBit) {
     EXPECT_TRUE(same_bits(ra.predicted_outputs, rb.predicted_outputs));
     EXPECT_TRUE(same_bits(ra.predicted_states, MatX(rb.predicted_states.topRows(ns))));
     EXPECT_GT(ra.moves.cwiseAbs().maxCoeff(), 0.0);  // the prediction depends on the moves
+  }
+}
+
+// The solution's prediction rounds each product before adding it, as the baseline code did:
+// in the AVX2 clone it is compiled without fused multiply-adds, so the default run's
+// trajectories do not depend on the CPU. Checked against a simulation of the same sums with
+// each product rounded on its own (a volatile store), on a plant without disturbances or
+// offsets (its known terms are zero): Δs_j = (B_j Δu_j) + A_j Δs_{j−1}, s_j = s_{j−1} + Δs_j.
+TEST(IncrementalMpcPrediction, SolutionPredictionRoundsEachProduct) {
+#if !(defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__))
+  GTEST_SKIP() << "only the x86-64 clones have contraction turned off";
+#endif
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int ns = 7, nu = 3, ny = 3, np = 10, nc = 4;
+  IncrementalMpcOptions o = basic_options(ny, nu, np, nc);
+  o.move_weight = VecX::Constant(nu, 0.01);  // moves large enough to matter
+  IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, 1, 0, 0}, o);
+  IncrementalMpcData& d = mpc.data();
+  d.C = MatX::Zero(ny, ns);
+  for (int k = 0; k < ny; ++k) d.C(k, k) = 1.0;
+  for (int j = 0; j < np; ++j) {
+    d.A[j] = MatX::Identity(ns, ns);
+    for (int k = 0; k < ns; ++k) {
+      if (k + 3 < ns) d.A[j](k, k + 3) = 0.1 + 0.3 * unit(rng);  // state k + 3 drives state k
+    }
+    d.A[j](0, 4) = 0.07 * unit(rng);
+    d.B[j] = MatX::Zero(ns, nu);
+    for (int c = 0; c < nu; ++c) d.B[j](ns - 1 - c, c) = 0.1 + 0.1 * unit(rng);
+    d.E[j] = MatX::Zero(ns, 1);
+  }
+  d.delta_state = random_matrix(rng, ns, 1, 0.05);
+  d.state = random_matrix(rng, ns, 1, 5.0);
+  d.output = d.C * d.state;
+  d.reference = random_matrix(rng, ny, np, 3.0);
+  d.disturbance_delta = MatX::Zero(1, np);
+  d.state_offset = MatX::Zero(ns, np);
+  const IncrementalMpcResult& r = mpc.solve();
+  ASSERT_TRUE(r.solved());
+  ASSERT_GT(r.moves.cwiseAbs().minCoeff(), 0.0);
+  const auto rounded = [](double a, double b) {
+    volatile double p = a * b;  // stored: rounded before the sum that uses it
+    return static_cast<double>(p);
+  };
+  VecX ds = d.delta_state, s = d.state;
+  for (int j = 0; j < np; ++j) {
+    VecX next(ns);
+    for (int k = 0; k < ns; ++k) {
+      double v = 0.0;
+      if (j < nc) {
+        double t = 0.0;
+        for (int c = 0; c < nu; ++c) {
+          if (d.B[j](k, c) != 0.0) t = t + rounded(d.B[j](k, c), r.moves[j * nu + c]);
+        }
+        v = v + t;
+      }
+      for (int l = 0; l < ns; ++l) {
+        if (d.A[j](k, l) != 0.0) v = v + rounded(d.A[j](k, l), ds[l]);
+      }
+      next[k] = v;
+    }
+    ds = next;
+    s = s + ds;
+    SCOPED_TRACE(j);
+    EXPECT_TRUE(same_bits(VecX(r.predicted_states.col(j)), s));
   }
 }
 
