@@ -160,6 +160,8 @@ struct IncrementalMpcData {
   /// other order the hot start reads the rows by their position.
   bool add_soft_row(int step, const Eigen::Ref<const VecX>& a, double bound, int group,
                     int source = 0);
+  /// The same with a's n_y coefficients at `a` (a tracker's fixed-size vector).
+  bool add_soft_row(int step, const double* a, double bound, int group, int source);
   void clear_soft_rows() { soft_row_count = 0; }
 
   int soft_row_count = 0;
@@ -173,15 +175,29 @@ struct IncrementalMpcData {
 // Inline: a tracker adds a hundred rows or more a step.
 inline bool IncrementalMpcData::add_soft_row(int step, const Eigen::Ref<const VecX>& a,
                                              double bound, int group, int source) {
+  if (a.size() != soft_normal.rows()) return false;
+  return add_soft_row(step, a.data(), bound, group, source);
+}
+
+inline bool IncrementalMpcData::add_soft_row(int step, const double* a, double bound, int group,
+                                             int source) {
   const int capacity = static_cast<int>(soft_step.size());
   if (soft_row_count >= capacity || step < 0 || step >= reference.cols() || group < 0 ||
-      source < 0 || a.size() != soft_normal.rows()) {
+      source < 0) {
     return false;
   }
   soft_step[soft_row_count] = step;
   soft_group[soft_row_count] = group;
   soft_source[soft_row_count] = source;
-  soft_normal.col(soft_row_count) = a;
+  const Eigen::Index n = soft_normal.rows();
+  double* column = soft_normal.data() + soft_row_count * n;
+  if (n == 3) {  // a position's three outputs, written out (GCC makes the loop a memcpy call)
+    column[0] = a[0];
+    column[1] = a[1];
+    column[2] = a[2];
+  } else {
+    for (Eigen::Index k = 0; k < n; ++k) column[k] = a[k];
+  }
   soft_bound[soft_row_count] = bound;
   ++soft_row_count;
   return true;

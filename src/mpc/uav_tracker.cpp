@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 
 #include "core/cpu_clock.hpp"
 #include "core/error.hpp"
+#include "mpc/sphere_rows.hpp"
 
 namespace ridgeline::mpc {
 
@@ -133,7 +135,19 @@ UavTracker::UavTracker(const UavTrackerOptions& options, const world::SafetyLimi
   nominal_states_ = MatX::Zero(vehicle::kStateDim, np_);
   nominal_positions_ = MatX::Zero(3, np_);
   reference_points_.resize(np_ + 1);
-  neighbour_positions_.resize(np_);
+  nominal_by_axis_ = RowPoints::Zero(3, np_);
+  centres_ = RowPoints::Zero(3, np_);
+  directions_ = RowPoints::Zero(3, np_);
+  distances_.resize(np_);
+  bounds_.resize(np_);
+  active_.resize(np_);
+  // m_j, the robust margin for the wind speed's error over j + 1 prediction steps (DESIGN §3).
+  robust_margins_.resize(np_);
+  for (int j = 0; j < np_; ++j) {
+    robust_margins_[j] =
+        std::min(options.wind_error_bound_m_s * (j + 1) * options.prediction_step_s,
+                 options.max_robust_margin_m);
+  }
   terrain_heights_.resize(np_);
   terrain_gradients_.resize(np_);
   result_.predicted_positions_m = MatX::Zero(3, np_);
@@ -318,41 +332,61 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
   const double dt = options_.prediction_step_s;
   const double activation = options_.activation_distance_m;
   const Vec3 here = state.head<3>();
-  const auto margin = [&](int j) {
-    return std::min(options_.wind_error_bound_m_s * (j + 1) * dt, options_.max_robust_margin_m);
-  };
   // `source` tells the rows of one kind apart (which threat, which neighbour) so that the QP's
   // hot start follows each row from step to step; rows are added in (kind, source, step) order.
   const auto add = [&](int j, const Vec3& a, double b, SoftConstraintKind kind, int source) {
-    if (d.add_soft_row(j, a, b, static_cast<int>(kind), source)) {
+    if (d.add_soft_row(j, a.data(), b, static_cast<int>(kind), source)) {
       ++result_.soft_rows[static_cast<int>(kind)];
     }
   };
-  // A unit normal from `from` to p̄; when p̄ sits on `from`, fall back to the direction of
-  // the UAV's current position, then to straight up.
-  const auto normal = [&](const Vec3& pbar, const Vec3& from, double& dist) {
-    Vec3 diff = pbar - from;
-    dist = diff.norm();
-    if (dist > 1e-6) return Vec3(diff / dist);
-    diff = here - from;
-    if (diff.norm() > 1e-6) return Vec3(diff.normalized());
-    return Vec3(Vec3::UnitZ());
+  // The nominal positions by coordinate, for the vector loops of the sphere rows.
+  for (int j = 0; j < np_; ++j) {
+    for (int i = 0; i < 3; ++i) nominal_by_axis_(i, j) = nominal_positions_(i, j);
+  }
+  // The active rows of one sphere whose centres are in centres_.
+  const HorizonPoints nominal{nominal_by_axis_.row(0).data(), nominal_by_axis_.row(1).data(),
+                              nominal_by_axis_.row(2).data()};
+  const SphereRowsOut out{distances_.data(),
+                          directions_.row(0).data(),
+                          directions_.row(1).data(),
+                          directions_.row(2).data(),
+                          bounds_.data(),
+                          active_.data()};
+  const auto add_sphere_rows = [&](SphereSpec& sphere, SoftConstraintKind kind, int source) {
+    sphere.centres = {centres_.row(0).data(), centres_.row(1).data(), centres_.row(2).data()};
+    sphere.activation_m = activation;
+    sphere.t_s = t_s;
+    sphere.dt_s = dt;
+    sphere_rows(nominal, sphere, np_, out);
+    for (int j = 0; j < np_; ++j) {
+      if (active_[j] == 0) continue;
+      if (distances_[j] > 1e-6) {
+        add(j, directions_.col(j), bounds_[j], kind, source);
+        continue;
+      }
+      // p̄_j sits on the centre: the normal points to the UAV's current position, or up.
+      const Vec3 c = centres_.col(j);
+      const Vec3 diff = here - c;
+      const Vec3 n = diff.norm() > 1e-6 ? Vec3(diff.normalized()) : Vec3(Vec3::UnitZ());
+      const double need =
+          sphere.margins != nullptr ? sphere.required_m + sphere.margins[j] : sphere.required_m;
+      add(j, n, n.dot(c) + need, kind, source);
+    }
   };
 
   const int num_threats = std::min<int>(static_cast<int>(env.threats.size()), options_.max_threats);
   result_.dropped_threats = static_cast<int>(env.threats.size()) - num_threats;
   for (int k = 0; k < num_threats; ++k) {
     const world::Threat& threat = env.threats[k];
-    for (int j = 0; j < np_; ++j) {
-      const double tj = t_s + (j + 1) * dt;
-      if (!(threat.appear_s <= tj && tj <= threat.vanish_s)) continue;
-      const Vec3 c = threat.centre_m + threat.velocity_m_s * (tj - threat.appear_s);  // eq. 13
-      const double required = threat.radius_m + limits_.threat_margin_m + margin(j);
-      double dist = 0.0;
-      const Vec3 n = normal(nominal_positions_.col(j), c, dist);
-      if (dist - required > activation) continue;
-      add(j, n, n.dot(c) + required, SoftConstraintKind::kThreat, k);
-    }
+    moving_centres(threat.centre_m, threat.velocity_m_s, threat.appear_s, t_s, dt, np_,
+                   centres_.row(0).data(), centres_.row(1).data(), centres_.row(2).data());
+    SphereSpec sphere;
+    sphere.margins = robust_margins_.data();
+    sphere.required_m = threat.radius_m + limits_.threat_margin_m;
+    sphere.windowed = true;
+    sphere.from_s = threat.appear_s;
+    sphere.to_s = threat.vanish_s;
+    add_sphere_rows(sphere, SoftConstraintKind::kThreat, k);
   }
 
   const int num_neighbours =
@@ -367,19 +401,13 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
     const double separation = static_cast<std::size_t>(k) < env.neighbour_separation_m.size()
                                   ? env.neighbour_separation_m[static_cast<std::size_t>(k)]
                                   : limits_.separation_m;
-    // The neighbour's positions first, in a loop of their own: each is a chain (a division, the
-    // sample it selects, the interpolation) that the rows' own chains (a square root, the
-    // normal's divisions) would otherwise queue behind; apart, the positions overlap each other.
     for (int j = 0; j < np_; ++j) {
-      neighbour_positions_[j] = messages::predicted_position(nb, t_s + (j + 1) * dt);
+      centres_.col(j) = messages::predicted_position(nb, t_s + (j + 1) * dt);
     }
-    for (int j = 0; j < np_; ++j) {
-      const Vec3& q = neighbour_positions_[j];
-      double dist = 0.0;
-      const Vec3 n = normal(nominal_positions_.col(j), q, dist);
-      if (dist - separation > activation) continue;
-      add(j, n, n.dot(q) + separation, SoftConstraintKind::kNeighbour, k);
-    }
+    SphereSpec sphere;
+    sphere.margins = nullptr;
+    sphere.required_m = separation;
+    add_sphere_rows(sphere, SoftConstraintKind::kNeighbour, k);
   }
 
   if (env.terrain != nullptr) {
@@ -389,7 +417,7 @@ void UavTracker::add_soft_rows(double t_s, const vehicle::State& state,
       const Vec3 pbar = nominal_positions_.col(j);
       const Vec2& g = terrain_gradients_[j];
       const double h = terrain_heights_[j];
-      const double required = limits_.terrain_clearance_m + margin(j) + model_error;
+      const double required = limits_.terrain_clearance_m + robust_margins_[j] + model_error;
       if (pbar.z() - h - required > activation) continue;
       // z − ∇H·(p − p̄)_xy ≥ H(p̄) + h_safe + m_j + e_H
       add(j, Vec3(-g.x(), -g.y(), 1.0), h + required - g.dot(pbar.head<2>()),

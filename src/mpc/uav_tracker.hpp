@@ -241,9 +241,16 @@ class UavTracker {
   MatX nominal_states_;                           // 7×Np: s̄_j at the start of prediction step j
   MatX nominal_positions_;                        // 3×Np: p̄ at t + (j+1)Δt_p
   std::vector<ReferencePoint> reference_points_;  // r(t + jΔt_p), j = 0..Np
-  std::vector<Vec3> neighbour_positions_;         // Np: one neighbour's at t + (j+1)Δt_p
-  std::vector<double> terrain_heights_;           // Np: H at the nominal positions
-  std::vector<Vec2> terrain_gradients_;           // Np: ∇H there
+  // The soft rows' geometry by coordinate (rows x, y, z; a column a prediction step): the
+  // nominal positions, one threat's or neighbour's centre, the unit vectors from it.
+  using RowPoints = Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>;
+  RowPoints nominal_by_axis_, centres_, directions_;
+  std::vector<double> distances_;        // Np: ‖p̄_j − c_j‖ for the centres above
+  std::vector<double> bounds_;           // Np: the sphere rows' bounds there
+  std::vector<std::int64_t> active_;     // Np: 1 where the row is active
+  std::vector<double> robust_margins_;   // Np: m_j, from the options
+  std::vector<double> terrain_heights_;  // Np: H at the nominal positions
+  std::vector<Vec2> terrain_gradients_;  // Np: ∇H there
 };
 
 }  // namespace ridgeline::mpc
