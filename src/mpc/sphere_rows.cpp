@@ -24,6 +24,24 @@ RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void moving_centres(const Vec3& c
   }
 }
 
+// The differences p_j − c_j and their squared lengths, element-wise: the vectorizer takes it.
+// (The pointers are this function's restrict parameters: restrict locals would not let GCC
+// drop its overlap checks. The square roots are a scalar loop of the caller's: std::sqrt may
+// set errno, which keeps a loop that calls it from vectorizing.)
+inline __attribute__((always_inline)) void squared_distances(
+    const double* __restrict px, const double* __restrict py, const double* __restrict pz,
+    const double* __restrict cx, const double* __restrict cy, const double* __restrict cz, int n,
+    double* __restrict dx, double* __restrict dy, double* __restrict dz,
+    double* __restrict squared) {
+  for (int j = 0; j < n; ++j) {
+    const double x = px[j] - cx[j], y = py[j] - cy[j], z = pz[j] - cz[j];
+    dx[j] = x;
+    dy[j] = y;
+    dz[j] = z;
+    squared[j] = x * x + y * y + z * z;
+  }
+}
+
 RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void sphere_rows(const HorizonPoints& nominal,
                                                                 const SphereSpec& sphere, int n,
                                                                 const SphereRowsOut& out) {
@@ -43,16 +61,7 @@ RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void sphere_rows(const HorizonPoi
   const double required = sphere.required_m, activation = sphere.activation_m;
   const double from_s = sphere.from_s, to_s = sphere.to_s, t_s = sphere.t_s, dt = sphere.dt_s;
   const bool windowed = sphere.windowed;
-  // The differences and squared distances (element-wise: the vectorizer takes it), then the
-  // square roots in a scalar loop of their own (std::sqrt may set errno, which keeps a loop that
-  // calls it from vectorizing).
-  for (int j = 0; j < n; ++j) {
-    const double dx = px[j] - cx[j], dy = py[j] - cy[j], dz = pz[j] - cz[j];
-    ux[j] = dx;
-    uy[j] = dy;
-    uz[j] = dz;
-    dist[j] = dx * dx + dy * dy + dz * dz;
-  }
+  squared_distances(px, py, pz, cx, cy, cz, n, ux, uy, uz, dist);
   for (int j = 0; j < n; ++j) dist[j] = std::sqrt(dist[j]);
   // The rest by four lanes written out (the vectorizer leaves a loop with these conditions
   // scalar), then the steps past the last multiple of four one by one.
