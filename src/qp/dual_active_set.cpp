@@ -76,8 +76,21 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
     const double* h = H + j * ldh;
     Eigen::Index last = n;
     if (end != nullptr) {
-      last = std::max(j + 1, reach);
-      for (Eigen::Index i = n; i > last; --i) {  // H's last nonzero below
+      // H's last nonzero below: four entries a test from the bottom up, then one by one.
+      const Eigen::Index lowest = std::max(j + 1, reach);
+      last = lowest;
+      Eigen::Index i = n;
+      const Vec4 zero = {};
+      for (; i - 4 >= lowest; i -= 4) {
+        Vec4 v;
+        std::memcpy(&v, h + i - 4, sizeof v);
+        const Mask4 nonzero = Mask4(v != zero);  // a NaN counts as nonzero
+        if ((nonzero[0] | nonzero[1] | nonzero[2] | nonzero[3]) == 0) continue;
+        last = i - (nonzero[3] != 0 ? 0 : nonzero[2] != 0 ? 1 : nonzero[1] != 0 ? 2 : 3);
+        i = lowest;  // found
+        break;
+      }
+      for (; i > lowest; --i) {
         if (h[i - 1] != 0.0) {
           last = i;
           break;
@@ -99,8 +112,11 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
       while (first_coupled < j && end[first_coupled] <= j) ++first_coupled;
       k0 = first_coupled;
     }
+    // With an envelope (not in place) the rows below it are overwritten with zeros further
+    // down, so a last pass of four may run past `last` while it stays inside the column.
+    const Eigen::Index four_rows_end = end != nullptr ? std::min(last + 3, n) : last;
     Eigen::Index i = j;
-    for (; i + 4 <= last; i += 4) {
+    for (; i + 4 <= four_rows_end; i += 4) {
       Vec4 sum;
       std::memcpy(&sum, col + i, sizeof sum);
       for (Eigen::Index k = k0; k < j; ++k) {
