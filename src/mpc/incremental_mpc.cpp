@@ -427,6 +427,17 @@ std::string_view IncrementalMpc::check_data() const {
       d.soft_bound.size() != cap || d.soft_row_count < 0 || d.soft_row_count > cap) {
     return "soft rows (storage)";
   }
+  // One pass without branches over every row (a hundred or more a step; a negative index
+  // compares as a large unsigned one), and only when it finds a bad row, which field.
+  const int* steps = d.soft_step.data();
+  const int* groups = d.soft_group.data();
+  const int* sources = d.soft_source.data();
+  bool bad = false;
+  for (int r = 0; r < d.soft_row_count; ++r) {
+    bad |= (static_cast<unsigned>(steps[r]) >= static_cast<unsigned>(np_)) |
+           (static_cast<unsigned>(groups[r]) >= static_cast<unsigned>(ng_)) | (sources[r] < 0);
+  }
+  if (!bad) return {};
   for (int r = 0; r < d.soft_row_count; ++r) {
     if (d.soft_step[r] < 0 || d.soft_step[r] >= np_) return "soft_step";
     if (d.soft_group[r] < 0 || d.soft_group[r] >= ng_) return "soft_group";
@@ -1224,7 +1235,18 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
       } else {
         dense_columns_product(d.A[j].data(), ns_, ns_, w, ds, v);
       }
-      for (int k = 0; k < ns_; ++k) s[k] = s_prev[k] + v[k];
+      // s_j = s_{j−1} + ds_j as two four-lane sums, states 0–3 and the last four (overlapping
+      // when n_s < 8: the same sums stored twice), as dense_columns_product loads its columns.
+      const int tail = ns_ - 4;
+      Vec4 lo, hi, add_lo, add_hi;
+      std::memcpy(&lo, s_prev, sizeof lo);
+      std::memcpy(&hi, s_prev + tail, sizeof hi);
+      std::memcpy(&add_lo, v, sizeof add_lo);
+      std::memcpy(&add_hi, v + tail, sizeof add_hi);
+      lo += add_lo;
+      hi += add_hi;
+      std::memcpy(s, &lo, sizeof lo);
+      std::memcpy(s + tail, &hi, sizeof hi);
     } else {
       // Row by row in scalars (the entries are listed by row): each value is used right where
       // it is computed, never reloaded as a vector from scalar stores (a store-forwarding

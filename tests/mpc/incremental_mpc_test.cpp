@@ -811,6 +811,35 @@ TEST(IncrementalMpcData, WrongSizedDataIsReportedNotSolved) {
   EXPECT_EQ(r.invalid_field, "A[j]");
 }
 
+// Soft rows written into the data directly (not through add_soft_row) are checked too: each
+// bad index is named, wherever it sits among good rows, and good rows pass.
+TEST(IncrementalMpcData, BadSoftRowIndicesAreNamed) {
+  const auto solve_with = [](int bad_row, const char* field, int value) {
+    IncrementalMpc mpc(IncrementalMpcDims{3, 1, 2, 0, 9, 2}, basic_options(2, 1, 10, 5));
+    IncrementalMpcData& d = mpc.data();
+    for (int r = 0; r < 9; ++r) {
+      EXPECT_TRUE(d.add_soft_row(r % 10, Eigen::Vector2d(1.0, 0.0), -100.0, r % 2, r));
+    }
+    if (bad_row >= 0) {
+      std::vector<int>& target = std::string(field) == "soft_step"    ? d.soft_step
+                                 : std::string(field) == "soft_group" ? d.soft_group
+                                                                      : d.soft_source;
+      target[static_cast<std::size_t>(bad_row)] = value;
+    }
+    return std::string(mpc.solve().invalid_field);
+  };
+  EXPECT_EQ(solve_with(-1, "", 0), "");
+  for (int row : {0, 4, 8}) {  // the first row, one inside a four-lane pass, the last
+    EXPECT_EQ(solve_with(row, "soft_step", -1), "soft_step") << row;
+    EXPECT_EQ(solve_with(row, "soft_step", 10), "soft_step") << row;  // Np is 10
+    EXPECT_EQ(solve_with(row, "soft_group", 2), "soft_group") << row;
+    EXPECT_EQ(solve_with(row, "soft_group", -3), "soft_group") << row;
+    EXPECT_EQ(solve_with(row, "soft_source", -1), "soft_source") << row;
+  }
+  EXPECT_EQ(solve_with(5, "soft_step", 9), "");  // the last step and group are in range
+  EXPECT_EQ(solve_with(5, "soft_group", 1), "");
+}
+
 // ---------------------------------------------------------------------------------------
 // Linear longitudinal aircraft model (small perturbations about a 60 m/s cruise, stability
 // axes), textbook structure (e.g. Nelson, "Flight Stability and Automatic Control", ch. 4–5)
