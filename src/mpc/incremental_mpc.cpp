@@ -519,6 +519,8 @@ void IncrementalMpc::collect_plant_nonzeros() {
   c_changed_ = c_changed_ || c_count != c_count_;
   c_count_ = c_count;
   c_row_begin_[ny_] = c_count_;
+  c_one_per_row_ = true;
+  for (int k = 0; k < ny_; ++k) c_one_per_row_ = c_one_per_row_ && c_row_begin_[k + 1] == k + 1;
   // The nonzeros of the B_j of the moves (j < Nc), listed by row. A plant's B_j rarely change
   // (the UAV's are constant): compared as bits with the copy listed last time, unchanged B_j
   // keep their listing, and their rows count as unchanged.
@@ -772,14 +774,23 @@ void IncrementalMpc::forward_pass() {
     }
     previous_changed = changed;
     std::swap(ds, dsn);
-    // y_j = y_{j−1} + C ds_j row by row in scalars, over C's few nonzeros.
-    for (int k = 0; k < ny_; ++k) {
-      double v = y_[k];
-      for (int ec = c_row_begin_[k]; ec < c_row_begin_[k + 1]; ++ec) {
-        v += c_entries_[ec].value * ds[c_entries_[ec].col];
+    // y_j = y_{j−1} + C ds_j row by row in scalars, over C's few nonzeros (one a row: the
+    // same sum without the loop).
+    if (c_one_per_row_) {
+      for (int k = 0; k < ny_; ++k) {
+        const double v = y_[k] + c_entries_[k].value * ds[c_entries_[k].col];
+        y_[k] = v;
+        Yfree_[j * ny_ + k] = v;
       }
-      y_[k] = v;
-      Yfree_[j * ny_ + k] = v;
+    } else {
+      for (int k = 0; k < ny_; ++k) {
+        double v = y_[k];
+        for (int ec = c_row_begin_[k]; ec < c_row_begin_[k + 1]; ++ec) {
+          v += c_entries_[ec].value * ds[c_entries_[ec].col];
+        }
+        y_[k] = v;
+        Yfree_[j * ny_ + k] = v;
+      }
     }
     // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
     for (int k = 0; k < ny_; ++k) {
@@ -1270,9 +1281,14 @@ void IncrementalMpc::extract_solution(const qp::QpResult& qp_result) {
     }
     std::swap(ds, dsn);
     for (int k = 0; k < ny_; ++k) {
-      double v = y_prev[k];
-      for (int e = c_row_begin_[k]; e < c_row_begin_[k + 1]; ++e) {
-        v += c_entries_[e].value * ds[c_entries_[e].col];
+      double v;
+      if (c_one_per_row_) {  // the same sum without the loop
+        v = y_prev[k] + c_entries_[k].value * ds[c_entries_[k].col];
+      } else {
+        v = y_prev[k];
+        for (int e = c_row_begin_[k]; e < c_row_begin_[k + 1]; ++e) {
+          v += c_entries_[e].value * ds[c_entries_[e].col];
+        }
       }
       y[k] = v;
       const double err = d.reference(k, j) - v;

@@ -331,6 +331,9 @@ class IncrementalMpc {
   static constexpr int kMinDenseStates = 4, kMaxDenseStates = 8;
   bool dense_ = false;
   int c_count_ = 0;
+  // Each output reads one state (C selects states, as the UAV's position): c_entries_[k] is
+  // row k's entry, and the outputs' sums need no loop over a row's entries.
+  bool c_one_per_row_ = false;
   std::vector<char> a_pattern_;  // n_s×n_s: nonzero in some A_j
   // What changed since the last build_prediction, as masks of rows (bit k: row k; used when
   // n_s ≤ 64): the rows of each A_j whose values changed, or all if it was listed anew (Np),
