@@ -26,8 +26,7 @@ RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void moving_centres(const Vec3& c
 
 // The differences p_j − c_j and their squared lengths, element-wise: the vectorizer takes it.
 // (The pointers are this function's restrict parameters: restrict locals would not let GCC
-// drop its overlap checks. The square roots are a scalar loop of the caller's: std::sqrt may
-// set errno, which keeps a loop that calls it from vectorizing.)
+// drop its overlap checks.)
 inline __attribute__((always_inline)) void squared_distances(
     const double* __restrict px, const double* __restrict py, const double* __restrict pz,
     const double* __restrict cx, const double* __restrict cy, const double* __restrict cz, int n,
