@@ -78,7 +78,8 @@ RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void sphere_rows(const HorizonPoi
     std::memcpy(&c2, cz + j, sizeof c2);
     if (margins != nullptr) std::memcpy(&margin, margins + j, sizeof margin);
     const Vec4 nx = x / d, ny = y / d, nz = z / d;
-    const Vec4 need = required + (margins != nullptr ? margin : zero);
+    // (required − 0 is `required` for every value, −0 included, as the scalar lanes below.)
+    const Vec4 need = margins != nullptr ? required + margin : required - zero;
     const Vec4 b = nx * c0 + ny * c1 + nz * c2 + need;
     const Vec4 steps = {static_cast<double>(j + 1), static_cast<double>(j + 2),
                         static_cast<double>(j + 3), static_cast<double>(j + 4)};

@@ -4,9 +4,11 @@
 // n_j = (p̄_j − c_j)/‖p̄_j − c_j‖.
 //
 // The horizon is computed four steps at once (AVX2 where the CPU has it) with the values of the
-// scalar Vec3 expressions, bit for bit: Eigen sums a Vec3's squared norm and dot product as
-// (x + y) + z with each product rounded, and so do these (contraction off); divisions and
-// square roots are exact in either form. A test checks it against the Vec3 expressions.
+// scalar Vec3 expressions, bit for bit: Eigen's vectorized Vec3 sums (two-double packets, then
+// the third) add a squared norm or dot product as (x + y) + z with each product rounded, and so
+// do these (contraction off, RIDGELINE_NO_CONTRACTION: GCC on x86-64); divisions and square
+// roots are exact in either form. A test checks it against the Vec3 expressions, so a build
+// where either condition fails (Eigen without vectorization, another compiler) shows.
 #pragma once
 
 #include <cstdint>

@@ -105,16 +105,20 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
     // Column j minus Σ_k L(j, k)·L(i, k) over the earlier columns whose envelopes reach row j,
     // k ascending: four rows a pass with their sums in a register, each L(i, k) loaded once
     // (the columns are short: about ten rows in a 20-column block). Each term is one
-    // multiply-subtract, in the order a column at a time gives (k = 0, 1, …), so the values
-    // are the same; the rows past the last multiple of four one by one.
+    // multiply-subtract, in the order a column at a time gave (k = 0, 1, …), so the values are
+    // the same (only an exact zero's sign can differ: a zero L(j, k) is no longer skipped).
     Eigen::Index k0 = 0;
     if (end != nullptr) {
       while (first_coupled < j && end[first_coupled] <= j) ++first_coupled;
       k0 = first_coupled;
     }
     // With an envelope (not in place) the rows below it are overwritten with zeros further
-    // down, so a last pass of four may run past `last` while it stays inside the column.
+    // down, so a last pass of four may run past `last` while it stays inside the column; those
+    // rows start from zero (not whatever the storage held), and the earlier columns are zero
+    // there too (below their envelopes), so they sum exact zeros. Where the pass cannot run
+    // past `last` (in place, or at the column's end), the rows left over go one by one.
     const Eigen::Index four_rows_end = end != nullptr ? std::min(last + 3, n) : last;
+    for (Eigen::Index r = last; r < four_rows_end; ++r) col[r] = 0.0;
     Eigen::Index i = j;
     for (; i + 4 <= four_rows_end; i += 4) {
       Vec4 sum;

@@ -818,7 +818,7 @@ TEST(IncrementalMpcData, BadSoftRowIndicesAreNamed) {
     IncrementalMpc mpc(IncrementalMpcDims{3, 1, 2, 0, 9, 2}, basic_options(2, 1, 10, 5));
     IncrementalMpcData& d = mpc.data();
     for (int r = 0; r < 9; ++r) {
-      EXPECT_TRUE(d.add_soft_row(r % 10, Eigen::Vector2d(1.0, 0.0), -100.0, r % 2, r));
+      EXPECT_TRUE(d.add_soft_row(r, Eigen::Vector2d(1.0, 0.0), -100.0, r % 2, r));
     }
     if (bad_row >= 0) {
       std::vector<int>& target = std::string(field) == "soft_step"    ? d.soft_step
@@ -829,7 +829,7 @@ TEST(IncrementalMpcData, BadSoftRowIndicesAreNamed) {
     return std::string(mpc.solve().invalid_field);
   };
   EXPECT_EQ(solve_with(-1, "", 0), "");
-  for (int row : {0, 4, 8}) {  // the first row, one inside a four-lane pass, the last
+  for (int row : {0, 4, 8}) {  // the first row, one in the middle, the last
     EXPECT_EQ(solve_with(row, "soft_step", -1), "soft_step") << row;
     EXPECT_EQ(solve_with(row, "soft_step", 10), "soft_step") << row;  // Np is 10
     EXPECT_EQ(solve_with(row, "soft_group", 2), "soft_group") << row;
