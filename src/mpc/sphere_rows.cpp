@@ -61,6 +61,7 @@ RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION void sphere_rows(const HorizonPoi
   const double from_s = sphere.from_s, to_s = sphere.to_s, t_s = sphere.t_s, dt = sphere.dt_s;
   const bool windowed = sphere.windowed;
   squared_distances(px, py, pz, cx, cy, cz, n, ux, uy, uz, dist);
+  // Vector square roots: this file is built without errno (CMakeLists.txt says why).
   for (int j = 0; j < n; ++j) dist[j] = std::sqrt(dist[j]);
   // The rest by four lanes written out (the vectorizer leaves a loop with these conditions
   // scalar), then the steps past the last multiple of four one by one.
