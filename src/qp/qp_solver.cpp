@@ -139,6 +139,47 @@ bool all_finite(const Eigen::PlainObjectBase<Derived>& x) {
   return finite_entries(x.data(), x.size());
 }
 
+// The largest |x_i| (0 for none), eight entries a pass: a maximum is the same in any order.
+RIDGELINE_SIMD_CLONES double largest_magnitude(const double* x, Eigen::Index n) {
+  constexpr long long kMagnitude = 0x7fffffffffffffffLL;  // every bit but the sign
+  const Mask4 magnitude_bits = {kMagnitude, kMagnitude, kMagnitude, kMagnitude};
+  Vec4 m0 = {}, m1 = {};
+  Eigen::Index i = 0;
+  for (; i + 8 <= n; i += 8) {
+    Vec4 v0, v1;
+    std::memcpy(&v0, x + i, sizeof v0);
+    std::memcpy(&v1, x + i + 4, sizeof v1);
+    const Vec4 a0 = (Vec4)((Mask4)v0 & magnitude_bits), a1 = (Vec4)((Mask4)v1 & magnitude_bits);
+    m0 = a0 > m0 ? a0 : m0;
+    m1 = a1 > m1 ? a1 : m1;
+  }
+  const Vec4 m = m0 > m1 ? m0 : m1;
+  double largest = std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+  for (; i < n; ++i) largest = std::max(largest, std::abs(x[i]));
+  return largest;
+}
+
+// Every pair of sides is usable: neither is NaN, a lower side is below +∞ (kInfiniteBound) and
+// an upper one above −∞, and lo ≤ hi. Four pairs a test.
+RIDGELINE_SIMD_CLONES bool valid_sides(const double* lo, const double* hi, Eigen::Index n) {
+  const Vec4 big = {kInfiniteBound, kInfiniteBound, kInfiniteBound, kInfiniteBound};
+  Mask4 bad = {};
+  Eigen::Index i = 0;
+  for (; i + 4 <= n; i += 4) {
+    Vec4 l, h;
+    std::memcpy(&l, lo + i, sizeof l);
+    std::memcpy(&h, hi + i, sizeof h);
+    bad |= (l != l) | (h != h) | (l >= big) | (h <= -big) | (l > h);
+  }
+  if ((bad[0] | bad[1] | bad[2] | bad[3]) != 0) return false;
+  for (; i < n; ++i) {
+    if (std::isnan(lo[i]) || std::isnan(hi[i])) return false;
+    if (lo[i] >= kInfiniteBound || hi[i] <= -kInfiniteBound) return false;
+    if (lo[i] > hi[i]) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 std::string_view to_string(QpStatus status) {
@@ -178,12 +219,7 @@ using Mat = Eigen::MatrixXd;
 
 // NaN is never allowed in bounds; a lower side of +∞ or an upper side of −∞ is meaningless.
 bool valid_sides(const Vec& lo, const Vec& hi) {
-  for (Eigen::Index i = 0; i < lo.size(); ++i) {
-    if (std::isnan(lo[i]) || std::isnan(hi[i])) return false;
-    if (lo[i] >= kInfiniteBound || hi[i] <= -kInfiniteBound) return false;
-    if (lo[i] > hi[i]) return false;
-  }
-  return true;
+  return valid_sides(lo.data(), hi.data(), lo.size());
 }
 
 bool valid_input(const QpProblem& q) {
@@ -203,14 +239,15 @@ bool valid_input(const QpProblem& q) {
     return false;
   }
   // Symmetric to a relative 1e-10 (round-off of an assembled H); the solver reads one triangle.
-  const double h_scale = std::max(1.0, q.H.cwiseAbs().maxCoeff());
+  const double h_scale = std::max(1.0, largest_magnitude(q.H.data(), q.H.size()));
   if (!symmetric_within(q.H.data(), n, 1e-10 * h_scale)) return false;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double lo = q.lb.size() != 0 ? q.lb[i] : -kInfinity;
-    const double hi = q.ub.size() != 0 ? q.ub[i] : kInfinity;
-    if (std::isnan(lo) || std::isnan(hi) || lo >= kInfiniteBound || hi <= -kInfiniteBound ||
-        lo > hi) {
-      return false;
+  if (q.lb.size() != 0 && q.ub.size() != 0) {
+    if (!valid_sides(q.lb, q.ub)) return false;
+  } else {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double lo = q.lb.size() != 0 ? q.lb[i] : -kInfinity;
+      const double hi = q.ub.size() != 0 ? q.ub[i] : kInfinity;
+      if (!valid_sides(&lo, &hi, 1)) return false;
     }
   }
   return valid_sides(q.lg, q.ug);

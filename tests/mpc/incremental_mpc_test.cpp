@@ -490,6 +490,51 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
   EXPECT_GE(none, 4 * 3);
 }
 
+// A plant whose state k reads states k and k + 1 (A_j with zeros), moved by its last two states
+// (n_u = 2), and whose outputs are states 0 and second_output (n_y = 2).
+void set_chain_plant(IncrementalMpcData& d, std::mt19937& rng, int second_output) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int ns = static_cast<int>(d.delta_state.size());
+  d.C = MatX::Zero(2, ns);
+  d.C(0, 0) = 1.0;
+  d.C(1, second_output) = 1.0;
+  for (std::size_t j = 0; j < d.A.size(); ++j) {
+    d.A[j] = MatX::Zero(ns, ns);
+    for (int k = 0; k < ns; ++k) {
+      d.A[j](k, k) = 0.9 + 0.1 * unit(rng);
+      if (k + 1 < ns) d.A[j](k, k + 1) = 0.1 + 0.1 * unit(rng);
+    }
+    d.B[j] = MatX::Zero(ns, 2);
+    d.B[j](ns - 1, 0) = 0.1;
+    d.B[j](ns - 2, 1) = 0.2;
+  }
+}
+
+// New measurements and references into `kept`, solved after its earlier steps and by a fresh
+// controller on the same data: Φ, the free response, H and f must be equal bit for bit, and
+// the fresh one computes every row. Returns the rows `kept` computed.
+int expect_kept_equals_fresh(IncrementalMpc& kept, std::mt19937& rng) {
+  IncrementalMpcData& d = kept.data();
+  const int ns = kept.dims().state_dim, ny = kept.dims().output_dim;
+  const int np = static_cast<int>(d.reference.cols());
+  d.delta_state = random_matrix(rng, ns, 1, 0.05);
+  d.output = random_matrix(rng, ny, 1, 5.0);
+  d.state = random_matrix(rng, ns, 1, 5.0);
+  d.reference = random_matrix(rng, ny, np, 3.0);
+  const IncrementalMpcResult& r = kept.solve();
+  IncrementalMpc fresh(kept.dims(), kept.options());
+  fresh.data() = d;
+  const IncrementalMpcResult& f = fresh.solve();
+  EXPECT_TRUE(r.solved());
+  EXPECT_TRUE(f.solved());
+  EXPECT_EQ(f.prediction_rows_computed, (ns + ny) * np);
+  EXPECT_TRUE(same_bits(kept.Phi(), fresh.Phi()));
+  EXPECT_TRUE(same_bits(kept.free_response(), fresh.free_response()));
+  EXPECT_TRUE(same_bits(kept.qp_problem().H, fresh.qp_problem().H));
+  EXPECT_TRUE(same_bits(kept.qp_problem().f, fresh.qp_problem().f));
+  return r.prediction_rows_computed;
+}
+
 // The same on plants of 3, 6 and 9 states whose A_j have zeros (state k reads states k and
 // k + 1), whose first two rows change at every step (as the UAV's x and y) and one other row of
 // one A_j at some steps, and whose nonzeros move at other steps (as many, in other places): the
@@ -506,19 +551,7 @@ TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
     const IncrementalMpcDims dims{ns, nu, ny, 0, 0, 0};
     IncrementalMpc kept(dims, o);
     IncrementalMpcData& d = kept.data();
-    d.C = MatX::Zero(ny, ns);
-    d.C(0, 0) = 1.0;
-    d.C(1, 1) = 1.0;
-    for (int j = 0; j < np; ++j) {
-      d.A[j] = MatX::Zero(ns, ns);
-      for (int k = 0; k < ns; ++k) {
-        d.A[j](k, k) = 0.9 + 0.1 * unit(rng);
-        if (k + 1 < ns) d.A[j](k, k + 1) = 0.1 + 0.1 * unit(rng);
-      }
-      d.B[j] = MatX::Zero(ns, nu);
-      d.B[j](ns - 1, 0) = 0.1;
-      d.B[j](ns - 2, 1) = 0.2;
-    }
+    set_chain_plant(d, rng, 1);
     const int all_rows = (ns + ny) * np;
     int fewer = 0;
     for (int step = 0; step < 12; ++step) {
@@ -536,27 +569,34 @@ TEST(IncrementalMpcCondensing, KeptRowsFollowTheDependentsOnSparsePlants) {
         const int k = ns - 2;
         std::swap(d.A[j](k, k + 1), d.A[j](k + 1, k));
       }
-      d.delta_state = random_matrix(rng, ns, 1, 0.05);
-      d.output = random_matrix(rng, ny, 1, 5.0);
-      d.state = random_matrix(rng, ns, 1, 5.0);
-      d.reference = random_matrix(rng, ny, np, 3.0);
-      const IncrementalMpcResult& r = kept.solve();
-      IncrementalMpc fresh(dims, o);
-      fresh.data() = d;
-      const IncrementalMpcResult& f = fresh.solve();
       SCOPED_TRACE(step);
-      ASSERT_TRUE(r.solved());
-      ASSERT_TRUE(f.solved());
-      EXPECT_EQ(f.prediction_rows_computed, all_rows);
-      fewer += r.prediction_rows_computed < all_rows ? 1 : 0;
-      EXPECT_TRUE(same_bits(kept.Phi(), fresh.Phi()));
-      EXPECT_TRUE(same_bits(kept.free_response(), fresh.free_response()));
-      EXPECT_TRUE(same_bits(kept.qp_problem().H, fresh.qp_problem().H));
-      EXPECT_TRUE(same_bits(kept.qp_problem().f, fresh.qp_problem().f));
+      const int computed = expect_kept_equals_fresh(kept, rng);
+      fewer += computed < all_rows ? 1 : 0;
     }
     // Rows were kept after the first step, except where the extra change came at step 0 of a
     // plant whose every row then reads it (3 states).
     EXPECT_GE(fewer, 7);
+  }
+}
+
+// A plant of more than 64 states (whose rows a 64-bit mask cannot tell apart): the values of
+// A_j change step after step in rows below and above 64 and at the last entry, and the listed
+// values must follow every one of them (the same Φ, free response and cost as a fresh build).
+TEST(IncrementalMpcCondensing, PlantsOfMoreThan64StatesReadEveryChangedValue) {
+  std::mt19937 rng(65);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int ns = 66, nu = 2, ny = 2, np = 5, nc = 2;
+  IncrementalMpc kept(IncrementalMpcDims{ns, nu, ny, 0, 0, 0}, basic_options(ny, nu, np, nc));
+  IncrementalMpcData& d = kept.data();
+  set_chain_plant(d, rng, ns - 1);
+  for (int step = 0; step < 6; ++step) {
+    for (int j = 0; j < np; ++j) {  // one entry below row 64, one above it (bit 1 too), the last
+      d.A[j](1, 2) = 0.1 + 0.1 * unit(rng);
+      if (step % 2 == 1) d.A[j](65, 65) = 0.9 + 0.1 * unit(rng);
+      if (step % 3 == 2) d.A[j](64, 65) = 0.1 + 0.1 * unit(rng);
+    }
+    SCOPED_TRACE(step);
+    expect_kept_equals_fresh(kept, rng);
   }
 }
 

@@ -247,6 +247,76 @@ TEST(QpSolverTest, InputChecksSeeEveryEntry) {
   }
 }
 
+// The tolerance of the symmetry test is relative to the largest |H_ij|, found four entries at a
+// time with a scalar tail: a largest entry (of either sign) at any diagonal position of any size
+// must set it. And the sides (lb ≤ ub, lg ≤ ug), read four pairs at a time: a NaN, a crossed
+// pair, a lower side of +∞ or an upper one of −∞ at any position is rejected, an absent side
+// (±∞ the right way) and an equality are accepted, with one of lb and ub absent too.
+TEST(QpSolverTest, InputChecksFindTheScaleAndEverySide) {
+  QpSolver solver;
+  for (int n = 2; n <= 13; ++n) {
+    for (int i = 0; i < n; ++i) {
+      for (const double largest : {1e4, -1e4}) {
+        QpProblem q;
+        q.H = Eigen::MatrixXd::Identity(n, n);
+        q.H(i, i) = largest;
+        q.f = Eigen::VectorXd::Zero(n);
+        q.G.resize(0, n);
+        q.A.resize(0, n);
+        const double tol = 1e-10 * 1e4;
+        const int a = i == 0 ? 1 : 0;  // an off-diagonal pair away from the largest entry
+        q.H(a, i) += 0.5 * tol;
+        EXPECT_NE(solver.solve(q).status, QpStatus::kInvalidInput) << n << " " << i;
+        q.H(a, i) += 1.0 * tol;
+        EXPECT_EQ(solver.solve(q).status, QpStatus::kInvalidInput) << n << " " << i;
+      }
+    }
+  }
+  const double nan = std::nan("");
+  for (int n = 1; n <= 13; ++n) {
+    QpProblem q;
+    q.H = Eigen::MatrixXd::Identity(n, n);
+    q.f = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0);
+    q.lb = Eigen::VectorXd::Constant(n, -2.0);
+    q.ub = Eigen::VectorXd::Constant(n, 2.0);
+    q.G = Eigen::MatrixXd::Identity(n, n);
+    q.lg = Eigen::VectorXd::Constant(n, -1.0);
+    q.ug = Eigen::VectorXd::Constant(n, 1.0);
+    q.A.resize(0, n);
+    ASSERT_EQ(solver.solve(q).status, QpStatus::kSolved) << n;
+    for (int i = 0; i < n; ++i) {
+      // (lower, upper) pairs at position i, and whether they are usable.
+      const std::pair<std::pair<double, double>, bool> cases[] = {
+          {{nan, 1.0}, false},        {{-1.0, nan}, false},         {{1.5, 0.5}, false},
+          {{1e20, kInfinity}, false}, {{-kInfinity, -1e20}, false}, {{-kInfinity, kInfinity}, true},
+          {{0.25, 0.25}, true},       {{-1e19, 1e19}, true}};
+      for (const auto& [sides, usable] : cases) {
+        QpProblem bad = q;
+        bad.lb[i] = sides.first;
+        bad.ub[i] = sides.second;
+        EXPECT_EQ(solver.solve(bad).status != QpStatus::kInvalidInput, usable)
+            << n << " lb/ub " << i << " " << sides.first << " " << sides.second;
+        bad = q;
+        bad.lg[i] = sides.first;
+        bad.ug[i] = sides.second;
+        EXPECT_EQ(solver.solve(bad).status != QpStatus::kInvalidInput, usable)
+            << n << " lg/ug " << i << " " << sides.first << " " << sides.second;
+      }
+      QpProblem upper_only = q;  // lb absent (−∞): only ub is read
+      upper_only.lb.resize(0);
+      EXPECT_NE(solver.solve(upper_only).status, QpStatus::kInvalidInput) << n;
+      upper_only.ub[i] = nan;
+      EXPECT_EQ(solver.solve(upper_only).status, QpStatus::kInvalidInput) << n << " ub " << i;
+      upper_only.ub[i] = -1e20;
+      EXPECT_EQ(solver.solve(upper_only).status, QpStatus::kInvalidInput) << n << " ub " << i;
+      QpProblem lower_only = q;  // ub absent (+∞)
+      lower_only.ub.resize(0);
+      lower_only.lb[i] = 1e20;
+      EXPECT_EQ(solver.solve(lower_only).status, QpStatus::kInvalidInput) << n << " lb " << i;
+    }
+  }
+}
+
 // A sequence of nearby QPs like the MPC's: a tracking problem whose target moves a little each
 // step, with box and row limits that become active. Warm starts must give the same solutions
 // and need fewer iterations in total than cold starts.
