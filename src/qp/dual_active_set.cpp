@@ -246,6 +246,42 @@ RIDGELINE_SIMD_CLONES void product_columns(const Eigen::MatrixXd& G, int m,
   }
 }
 
+// The rows j < m of a side beyond the tolerance, lo_j − gx_j > tolerance·max(1, |lo_j|) or
+// gx_j − hi_j > tolerance·max(1, |hi_j|) for a finite side (most_violated's first test, the
+// same expressions), four rows a test; their indices in increasing order go to out. Returns
+// how many.
+RIDGELINE_SIMD_CLONES int rows_beyond_tolerance(const double* lo, const double* hi,
+                                                const double* gx, int m, double tolerance,
+                                                int* __restrict out) {
+  constexpr long long kMagnitude = 0x7fffffffffffffffLL;  // every bit but the sign
+  const Mask4 magnitude = {kMagnitude, kMagnitude, kMagnitude, kMagnitude};
+  const Vec4 one = {1.0, 1.0, 1.0, 1.0};
+  const Vec4 big = {kInfiniteBound, kInfiniteBound, kInfiniteBound, kInfiniteBound};
+  const Vec4 tol = {tolerance, tolerance, tolerance, tolerance};
+  int count = 0, j = 0;
+  for (; j + 4 <= m; j += 4) {
+    Vec4 l, h, g;
+    std::memcpy(&l, lo + j, sizeof l);
+    std::memcpy(&h, hi + j, sizeof h);
+    std::memcpy(&g, gx + j, sizeof g);
+    const Vec4 abs_l = (Vec4)((Mask4)l & magnitude), abs_h = (Vec4)((Mask4)h & magnitude);
+    // max(1, |side|) as std::max(1.0, |side|) gives it: |side| where 1 < |side|, else 1.
+    const Mask4 beyond = ((abs_l < big) & ((l - g) > tol * (one < abs_l ? abs_l : one))) |
+                         ((abs_h < big) & ((g - h) > tol * (one < abs_h ? abs_h : one)));
+    if ((beyond[0] | beyond[1] | beyond[2] | beyond[3]) == 0) continue;
+    for (int k = 0; k < 4; ++k) {
+      if (beyond[k] != 0) out[count++] = j + k;
+    }
+  }
+  for (; j < m; ++j) {
+    if ((finite_side(lo[j]) && lo[j] - gx[j] > tolerance * std::max(1.0, std::abs(lo[j]))) ||
+        (finite_side(hi[j]) && gx[j] - hi[j] > tolerance * std::max(1.0, std::abs(hi[j])))) {
+      out[count++] = j;
+    }
+  }
+  return count;
+}
+
 // J[:, q..n) ← J[:, q..n)·(I − τvvᵀ) with v = [1; essential] (Eigen's
 // applyHouseholderOnTheRight, whose rank-one update is SSE2): w = Jv, then J −= τwvᵀ, both
 // column by column as contiguous axpys. w has J.rows() entries of workspace.
@@ -300,6 +336,7 @@ void DualActiveSet::resize(int n, int m, int p) {
   if (m > m_capacity_) {
     m_capacity_ = m;
     gx_.setZero(m);
+    candidates_.assign(m, 0);
   }
   m_ = m;
 }
@@ -476,9 +513,13 @@ bool DualActiveSet::most_violated(Side& c, double& violation) {
       }
     }
   }
-  if (m_ > 0) {
-    product_columns(q.G, m_, x_, gx_.data());
-    for (int j = 0; j < m_; ++j) {
+  if (m_live_ > 0) {
+    product_columns(q.G, m_live_, x_, gx_.data());
+    // The rows that fail the first test below, found four at a time; the others pass both.
+    const int candidates = rows_beyond_tolerance(q.lg.data(), q.ug.data(), gx_.data(), m_live_,
+                                                 tolerance_, candidates_.data());
+    for (int k = 0; k < candidates; ++k) {
+      const int j = candidates_[k];
       const double lo = q.lg[j], hi = q.ug[j];
       if (equal_sides(lo, hi)) continue;
       // The tolerance is tolerance·max(1, ‖g‖, |side|); ‖g‖ is computed only for the rows
@@ -612,6 +653,10 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
                                       double tolerance) {
   q_ = &q;
   tolerance_ = tolerance;
+  m_live_ = m_;
+  while (m_live_ > 0 && !finite_side(q.lg[m_live_ - 1]) && !finite_side(q.ug[m_live_ - 1])) {
+    --m_live_;
+  }
   iterations_ = 0;
   count_ = 0;
   fast_path_ = false;

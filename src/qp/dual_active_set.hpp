@@ -105,6 +105,11 @@ class DualActiveSet {
   bool try_working_set(bool hot_start);  // the fast path (see the implementation)
 
   int n_ = -1, m_ = -1, p_ = -1, m_capacity_ = -1;
+  // Rows [0, m_live_) hold every row with a finite side: the rows after them are free on both
+  // sides (the MPC's padding of its soft rows), never violated nor active, and the products
+  // and checks of most_violated() skip them (set by solve()).
+  int m_live_ = 0;
+  std::vector<int> candidates_;  // m_capacity_ entries: most_violated()'s rows to test in full
   const QpProblem* q_ = nullptr;
   double tolerance_ = 1e-10;
   Eigen::MatrixXd L_;  // H = LLᵀ, lower triangle (the upper one is unused)

@@ -343,5 +343,63 @@ TEST(DualActiveSetTest, MultipliersHaveTheInteriorPointsSigns) {
   EXPECT_EQ(r.duality_gap, 0.0);
 }
 
+// most_violated() tests the rows four at a time before it tests a few in full, and skips the
+// trailing rows free on both sides (the MPC's padding of its soft rows): one row violated by
+// the unconstrained minimum, at every position of every row count up to 13, on its lower or
+// upper side, with and without free rows after it (whose G is not zero), must be found and made
+// active; hot-started from the case before, as in the MPC.
+TEST(DualActiveSetTest, AViolatedRowIsFoundAtEveryPositionBeforeFreeRows) {
+  QpSettings settings;
+  settings.method = QpMethod::kActiveSet;
+  QpSolver solver(settings);
+  const Eigen::Vector3d target(1.0, 2.0, 3.0);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> any(-1.0, 1.0);
+  for (int m = 1; m <= 13; ++m) {
+    for (int i = 0; i < m; ++i) {
+      for (const bool lower : {true, false}) {
+        for (const int free_rows : {0, 5}) {
+          QpProblem q;
+          q.H = 2.0 * Eigen::Matrix3d::Identity();
+          q.f = -2.0 * target;  // unconstrained minimum: z = target
+          q.A.resize(0, 3);
+          q.G = Eigen::MatrixXd::Zero(m + free_rows, 3);
+          q.lg = Eigen::VectorXd::Constant(m + free_rows, -100.0);
+          q.ug = Eigen::VectorXd::Constant(m + free_rows, 100.0);
+          for (int j = 0; j < m; ++j) q.G(j, j % 3) = 1.0;
+          const int k = i % 3;
+          Eigen::Vector3d expected = target;
+          if (lower) {
+            q.lg[i] = target[k] + 0.5;  // z_k ≥ target_k + 0.5
+            expected[k] += 0.5;
+          } else {
+            q.ug[i] = target[k] - 0.5;  // z_k ≤ target_k − 0.5
+            expected[k] -= 0.5;
+          }
+          for (int j = m; j < m + free_rows; ++j) {
+            for (int c = 0; c < 3; ++c) q.G(j, c) = any(rng);
+            q.lg[j] = -kInfinity;
+            q.ug[j] = kInfinity;
+          }
+          const QpResult& r = solver.solve(q);
+          SCOPED_TRACE(::testing::Message() << "m " << m << " row " << i << " lower " << lower
+                                            << " free rows " << free_rows);
+          ASSERT_EQ(r.status, QpStatus::kSolved);
+          EXPECT_FALSE(r.fell_back);
+          EXPECT_LT((r.z - expected).cwiseAbs().maxCoeff(), 1e-9);
+          // Only row i holds a multiplier (negative on a lower side, as the interior point's).
+          for (int j = 0; j < m + free_rows; ++j) {
+            if (j == i) {
+              EXPECT_NEAR(r.dual_rows[j], lower ? -1.0 : 1.0, 1e-9);
+            } else {
+              EXPECT_EQ(r.dual_rows[j], 0.0) << j;
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ridgeline::qp
