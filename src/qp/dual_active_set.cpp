@@ -576,7 +576,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   const QpProblem& q = *q_;
   count_ = 0;
   for (int k = 0; k < p_; ++k) active_[count_++] = Side{kEqualityRow, k};
-  for (int j = 0; j < m_ && count_ < n_; ++j) {
+  for (int j = 0; j < m_live_ && count_ < n_; ++j) {
     if (is_equality(Side{kRowLower, j})) active_[count_++] = Side{kRowLower, j};
   }
   for (int i = 0; i < n_ && q.lb.size() != 0 && count_ < n_; ++i) {
@@ -675,7 +675,7 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
 
   // Equalities first (always in the working set), then the previous inequalities.
   for (int k = 0; k < p_; ++k) add(Side{kEqualityRow, k});
-  for (int j = 0; j < m_; ++j) {
+  for (int j = 0; j < m_live_; ++j) {
     if (is_equality(Side{kRowLower, j})) add(Side{kRowLower, j});
   }
   for (int i = 0; i < n_ && q.lb.size() != 0; ++i) {
@@ -774,7 +774,7 @@ bool DualActiveSet::finish(bool gx_current) {
     if (q.ub.size() != 0 && finite_side(q.ub[i])) worst = std::max(worst, x_[i] - q.ub[i]);
   }
   if (m_ > 0 && !gx_current) gx_.head(m_).noalias() = q.G * x_;
-  for (int j = 0; j < m_; ++j) {
+  for (int j = 0; j < m_live_; ++j) {  // the free rows after them have no side to violate
     if (finite_side(q.lg[j])) worst = std::max(worst, q.lg[j] - gx_[j]);
     if (finite_side(q.ug[j])) worst = std::max(worst, gx_[j] - q.ug[j]);
   }
@@ -789,7 +789,7 @@ bool DualActiveSet::finish(bool gx_current) {
   for (int k = 0; k < p_; ++k) {
     if (!holds(Side{kEqualityRow, k})) return false;
   }
-  for (int j = 0; j < m_; ++j) {
+  for (int j = 0; j < m_live_; ++j) {
     if (is_equality(Side{kRowLower, j}) && !holds(Side{kRowLower, j})) return false;
   }
   for (int i = 0; i < n_ && q.lb.size() != 0; ++i) {

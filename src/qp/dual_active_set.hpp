@@ -106,8 +106,8 @@ class DualActiveSet {
 
   int n_ = -1, m_ = -1, p_ = -1, m_capacity_ = -1;
   // Rows [0, m_live_) hold every row with a finite side: the rows after them are free on both
-  // sides (the MPC's padding of its soft rows), never violated nor active, and the products
-  // and checks of most_violated() skip them (set by solve()).
+  // sides (the MPC's padding of its soft rows), never violated nor active: most_violated()'s
+  // product and checks, finish()'s and the scans for equalities skip them (set by solve()).
   int m_live_ = 0;
   std::vector<int> candidates_;  // m_capacity_ entries: most_violated()'s rows to test in full
   const QpProblem* q_ = nullptr;
