@@ -421,6 +421,128 @@ TEST(UavTracker, KeepsTerrainClearanceOverAHill) {
               log.max_slack_m);
 }
 
+// The soft rows the tracker hands to the MPC, against their equations (step 6 of
+// uav_tracker.hpp) computed here from the public pieces (Threat::centre_at, the broadcast
+// prediction, Terrain::height and gradient): a moving threat whose window opens and closes
+// inside the horizon and whose centre crosses the nominal at one step (the fallback normal,
+// towards the UAV), a neighbour's broadcast prediction, and a peak terrain with a model error.
+// After reset() the nominal positions are the reference's, so the test knows p̄_j. Every row's
+// step, kind, source, normal and bound, in the order added; Np = 41, not a multiple of the four
+// steps the sphere rows take at once. (The reference's batch sample and at() may differ in the
+// last bits: the values are compared to 1e-9.)
+TEST(UavTracker, SoftRowsFollowTheirEquations) {
+  UavTrackerOptions o;
+  o.prediction_horizon = 41;
+  const world::SafetyLimits limits;
+  UavTracker tracker(o, limits);
+  HelixReference::Config c;
+  c.centre_m = Vec3(0.0, 0.0, 120.0);
+  c.radius_m = 150.0;
+  c.speed_m_s = 12.0;
+  c.climb_rate_m_s = 0.5;
+  const HelixReference ref(c);
+  world::PeakTerrainConfig tc;
+  tc.peaks = {{120.0, 60.0, 95.0, 60.0, 45.0}, {-80.0, 130.0, 70.0, 50.0, 80.0}};
+  tc.model_error_m = 3.0;
+  const world::PeakTerrain terrain(tc);
+  const double dt = o.prediction_step_s, activation = o.activation_distance_m;
+  const int np = o.prediction_horizon;
+  for (const double t : {0.0, 1.3, 7.72}) {
+    SCOPED_TRACE(t);
+    const int crossing = 17;  // the threat's centre sits on p̄ at this step
+    const double t_crossing = t + (crossing + 1) * dt;
+    world::Threat threat;
+    threat.velocity_m_s = Vec3(3.0, -2.0, 0.5);
+    threat.radius_m = 25.0;
+    threat.appear_s = t + 0.55;  // rows from step 5 to step 29
+    threat.vanish_s = t + 3.05;
+    threat.centre_m =
+        ref.at(t_crossing).position_m - threat.velocity_m_s * (t_crossing - threat.appear_s);
+    messages::PredictedTrajectory neighbour;  // flying the reference 15 m off
+    neighbour.uav = 2;
+    neighbour.step_s = 0.25;
+    neighbour.stamp_s = t - 0.5;
+    for (int i = 0; i < 30; ++i) {
+      const double ti = neighbour.stamp_s + (i + 1) * neighbour.step_s;
+      neighbour.positions_m.push_back(ref.at(ti).position_m + Vec3(12.0, -9.0, 0.0));
+    }
+    const std::vector<world::Threat> threats{threat};
+    const std::vector<messages::PredictedTrajectory> neighbours{neighbour};
+    const TrackerEnvironment env{threats, neighbours, &terrain};
+    State state = state_on(ref.at(t));
+    state[vehicle::kZ] += 4.0;  // the UAV off the nominal: the fallback normal points to it
+    tracker.reset(Input(c.speed_m_s, c.speed_m_s / c.radius_m, c.climb_rate_m_s));
+    tracker.step(t, state, Vec3::Zero(), ref, env);
+
+    struct Row {
+      int step, kind, source;
+      Vec3 normal;
+      double bound;
+    };
+    std::vector<Row> expected;
+    const auto margin = [&](int j) {
+      return std::min(o.wind_error_bound_m_s * (j + 1) * dt, o.max_robust_margin_m);
+    };
+    // n_jᵀ p_j ≥ n_jᵀ c_j + need, n_j from c_j to p̄_j (to the UAV where p̄_j sits on c_j).
+    const auto sphere_row = [&](int j, SoftConstraintKind kind, const Vec3& centre, double need) {
+      const Vec3 pbar = ref.at(t + (j + 1) * dt).position_m;
+      const double distance = (pbar - centre).norm();
+      if (distance - need > activation) return;
+      const Vec3 n = distance > 1e-6 ? Vec3((pbar - centre) / distance)
+                                     : Vec3((state.head<3>() - centre).normalized());
+      expected.push_back({j, static_cast<int>(kind), 0, n, n.dot(centre) + need});
+    };
+    for (int j = 0; j < np; ++j) {
+      const double tj = t + (j + 1) * dt;
+      if (!threat.active(tj)) continue;
+      sphere_row(j, SoftConstraintKind::kThreat, threat.centre_at(tj),
+                 threat.radius_m + limits.threat_margin_m + margin(j));
+    }
+    for (int j = 0; j < np; ++j) {
+      sphere_row(j, SoftConstraintKind::kNeighbour,
+                 messages::predicted_position(neighbour, t + (j + 1) * dt), limits.separation_m);
+    }
+    for (int j = 0; j < np; ++j) {
+      const Vec3 pbar = ref.at(t + (j + 1) * dt).position_m;
+      const double h = terrain.height(pbar.x(), pbar.y());
+      const Vec2 g = terrain.gradient(pbar.x(), pbar.y());
+      const double required = limits.terrain_clearance_m + margin(j) + tc.model_error_m;
+      if (pbar.z() - h - required > activation) continue;
+      // z − ∇H·(p − p̄)_xy ≥ H(p̄) + h_safe + m_j + e_H
+      expected.push_back({j, static_cast<int>(SoftConstraintKind::kTerrain), 0,
+                          Vec3(-g.x(), -g.y(), 1.0), h + required - g.dot(pbar.head<2>())});
+    }
+    // The cases are there: the threat's window cuts the horizon at both ends, its fallback
+    // row, and rows of every kind.
+    int threat_rows = 0, terrain_rows = 0, neighbour_rows = 0;
+    bool fallback = false;
+    for (const Row& row : expected) {
+      threat_rows += row.kind == 0 ? 1 : 0;
+      neighbour_rows += row.kind == 1 ? 1 : 0;
+      terrain_rows += row.kind == 2 ? 1 : 0;
+      fallback = fallback || (row.kind == 0 && row.step == crossing);
+    }
+    EXPECT_GT(threat_rows, 0);
+    EXPECT_LT(threat_rows, 26);
+    EXPECT_TRUE(fallback);
+    EXPECT_GT(neighbour_rows, 0);
+    EXPECT_GT(terrain_rows, 0);
+    EXPECT_LT(terrain_rows, np);
+
+    const IncrementalMpcData& d = tracker.mpc().data();
+    ASSERT_EQ(d.soft_row_count, static_cast<int>(expected.size()));
+    for (int r = 0; r < d.soft_row_count; ++r) {
+      const Row& e = expected[static_cast<std::size_t>(r)];
+      SCOPED_TRACE(::testing::Message() << "row " << r << " kind " << e.kind << " step " << e.step);
+      EXPECT_EQ(d.soft_step[r], e.step);
+      EXPECT_EQ(d.soft_group[r], e.kind);
+      EXPECT_EQ(d.soft_source[r], e.source);
+      EXPECT_LT((d.soft_normal.col(r) - e.normal).cwiseAbs().maxCoeff(), 1e-9);
+      EXPECT_NEAR(d.soft_bound[r], e.bound, 1e-9 * (1.0 + std::abs(e.bound)));
+    }
+  }
+}
+
 // The tracker's prediction must agree with the vehicle model it linearizes: replaying the
 // planned moves u_j = u_{k−1} + Σ Δu through the nonlinear Euler step (eq. 4) at Δt_p with the
 // measured wind reproduces the predicted positions. Truth = model here (no mismatch), so the
