@@ -469,8 +469,7 @@ TEST(UavTracker, SoftRowsFollowTheirEquations) {
     const std::vector<world::Threat> threats{threat};
     const std::vector<messages::PredictedTrajectory> neighbours{neighbour};
     const TrackerEnvironment env{threats, neighbours, &terrain};
-    State state = state_on(ref.at(t));
-    state[vehicle::kZ] += 4.0;  // the UAV off the nominal: the fallback normal points to it
+    State state = state_on(ref.at(t));  // where p̄_j sits on c_j the normal points to the UAV
     tracker.reset(Input(c.speed_m_s, c.speed_m_s / c.radius_m, c.climb_rate_m_s));
     tracker.step(t, state, Vec3::Zero(), ref, env);
 
@@ -480,6 +479,7 @@ TEST(UavTracker, SoftRowsFollowTheirEquations) {
       double bound;
     };
     std::vector<Row> expected;
+    std::vector<int> fallback_steps;  // the steps whose row took the fallback normal
     const auto margin = [&](int j) {
       return std::min(o.wind_error_bound_m_s * (j + 1) * dt, o.max_robust_margin_m);
     };
@@ -488,6 +488,7 @@ TEST(UavTracker, SoftRowsFollowTheirEquations) {
       const Vec3 pbar = ref.at(t + (j + 1) * dt).position_m;
       const double distance = (pbar - centre).norm();
       if (distance - need > activation) return;
+      if (distance <= 1e-6) fallback_steps.push_back(j);
       const Vec3 n = distance > 1e-6 ? Vec3((pbar - centre) / distance)
                                      : Vec3((state.head<3>() - centre).normalized());
       expected.push_back({j, static_cast<int>(kind), 0, n, n.dot(centre) + need});
@@ -512,19 +513,20 @@ TEST(UavTracker, SoftRowsFollowTheirEquations) {
       expected.push_back({j, static_cast<int>(SoftConstraintKind::kTerrain), 0,
                           Vec3(-g.x(), -g.y(), 1.0), h + required - g.dot(pbar.head<2>())});
     }
-    // The cases are there: the threat's window cuts the horizon at both ends, its fallback
-    // row, and rows of every kind.
-    int threat_rows = 0, terrain_rows = 0, neighbour_rows = 0;
-    bool fallback = false;
+    // The cases are there: the threat's window cuts the horizon at both ends (its rows run
+    // from step 5 to step 29), the fallback normal at the crossing only, rows of every kind.
+    int first_threat_step = np, last_threat_step = -1, terrain_rows = 0, neighbour_rows = 0;
     for (const Row& row : expected) {
-      threat_rows += row.kind == 0 ? 1 : 0;
+      if (row.kind == 0) {
+        first_threat_step = std::min(first_threat_step, row.step);
+        last_threat_step = std::max(last_threat_step, row.step);
+      }
       neighbour_rows += row.kind == 1 ? 1 : 0;
       terrain_rows += row.kind == 2 ? 1 : 0;
-      fallback = fallback || (row.kind == 0 && row.step == crossing);
     }
-    EXPECT_GT(threat_rows, 0);
-    EXPECT_LT(threat_rows, 26);
-    EXPECT_TRUE(fallback);
+    EXPECT_EQ(first_threat_step, 5);
+    EXPECT_EQ(last_threat_step, 29);
+    EXPECT_EQ(fallback_steps, std::vector<int>{crossing});
     EXPECT_GT(neighbour_rows, 0);
     EXPECT_GT(terrain_rows, 0);
     EXPECT_LT(terrain_rows, np);

@@ -399,6 +399,18 @@ TEST(DualActiveSetTest, AViolatedRowIsFoundAtEveryPositionBeforeFreeRows) {
       }
     }
   }
+  // Free rows only (no row has a finite side): the unconstrained minimum, no multiplier.
+  QpProblem q;
+  q.H = 2.0 * Eigen::Matrix3d::Identity();
+  q.f = -2.0 * target;
+  q.A.resize(0, 3);
+  q.G = Eigen::MatrixXd::Ones(5, 3);
+  q.lg = Eigen::VectorXd::Constant(5, -kInfinity);
+  q.ug = Eigen::VectorXd::Constant(5, kInfinity);
+  const QpResult& r = solver.solve(q);
+  ASSERT_EQ(r.status, QpStatus::kSolved);
+  EXPECT_LT((r.z - target).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(r.dual_rows.cwiseAbs().maxCoeff(), 0.0);
 }
 
 }  // namespace

@@ -247,8 +247,8 @@ TEST(QpSolverTest, InputChecksSeeEveryEntry) {
   }
 }
 
-// The tolerance of the symmetry test is relative to the largest |H_ij|, found four entries at a
-// time with a scalar tail: a largest entry (of either sign) at any diagonal position of any size
+// The tolerance of the symmetry test is relative to the largest |H_ij|, found eight entries at
+// a time with a scalar tail: a largest entry (of either sign) at any diagonal position of any size
 // must set it. And the sides (lb ≤ ub, lg ≤ ug), read four pairs at a time: a NaN, a crossed
 // pair, a lower side of +∞ or an upper one of −∞ at any position is rejected, an absent side
 // (±∞ the right way) and an equality are accepted, with one of lb and ub absent too.
@@ -289,7 +289,8 @@ TEST(QpSolverTest, InputChecksFindTheScaleAndEverySide) {
       const std::pair<std::pair<double, double>, bool> cases[] = {
           {{nan, 1.0}, false},        {{-1.0, nan}, false},         {{1.5, 0.5}, false},
           {{1e20, kInfinity}, false}, {{-kInfinity, -1e20}, false}, {{-kInfinity, kInfinity}, true},
-          {{0.25, 0.25}, true},       {{-1e19, 1e19}, true}};
+          {{0.25, 0.25}, true},       {{-1e19, 1e19}, true},        {{0.0, -0.0}, true},
+          {{-0.0, 0.0}, true}};
       for (const auto& [sides, usable] : cases) {
         QpProblem bad = q;
         bad.lb[i] = sides.first;
@@ -312,6 +313,8 @@ TEST(QpSolverTest, InputChecksFindTheScaleAndEverySide) {
       QpProblem lower_only = q;  // ub absent (+∞)
       lower_only.ub.resize(0);
       lower_only.lb[i] = 1e20;
+      EXPECT_EQ(solver.solve(lower_only).status, QpStatus::kInvalidInput) << n << " lb " << i;
+      lower_only.lb[i] = nan;
       EXPECT_EQ(solver.solve(lower_only).status, QpStatus::kInvalidInput) << n << " lb " << i;
     }
   }
