@@ -31,6 +31,14 @@ typedef double Vec4 __attribute__((vector_size(32)));
 // A lane-wise comparison of two Vec4: −1 where true, 0 elsewhere.
 typedef long long Mask4 __attribute__((vector_size(32)));
 
+// v ← |v| lane by lane: the sign bit cleared (as std::abs; −0 gives +0, a NaN stays a NaN). In
+// place, as the vectors here are passed by reference only (see Vec4).
+inline __attribute__((always_inline)) void make_magnitude(Vec4& v) {
+  constexpr long long kMagnitude = 0x7fffffffffffffffLL;  // every bit but the sign
+  const Mask4 magnitude = {kMagnitude, kMagnitude, kMagnitude, kMagnitude};
+  v = (Vec4)((Mask4)v & magnitude);  // a vector cast of equal size reinterprets the bits
+}
+
 // Transposes the 4 × 4 block whose rows are r0..r3, in place (the rows become its columns).
 inline __attribute__((always_inline)) void transpose4(Vec4& r0, Vec4& r1, Vec4& r2, Vec4& r3) {
   const Vec4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);  // r0[0] r1[0] r0[2] r1[2]

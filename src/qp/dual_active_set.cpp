@@ -253,8 +253,6 @@ RIDGELINE_SIMD_CLONES void product_columns(const Eigen::MatrixXd& G, int m,
 RIDGELINE_SIMD_CLONES int rows_beyond_tolerance(const double* lo, const double* hi,
                                                 const double* gx, int m, double tolerance,
                                                 int* __restrict out) {
-  constexpr long long kMagnitude = 0x7fffffffffffffffLL;  // every bit but the sign
-  const Mask4 magnitude = {kMagnitude, kMagnitude, kMagnitude, kMagnitude};
   const Vec4 one = {1.0, 1.0, 1.0, 1.0};
   const Vec4 big = {kInfiniteBound, kInfiniteBound, kInfiniteBound, kInfiniteBound};
   const Vec4 tol = {tolerance, tolerance, tolerance, tolerance};
@@ -264,7 +262,9 @@ RIDGELINE_SIMD_CLONES int rows_beyond_tolerance(const double* lo, const double* 
     std::memcpy(&l, lo + j, sizeof l);
     std::memcpy(&h, hi + j, sizeof h);
     std::memcpy(&g, gx + j, sizeof g);
-    const Vec4 abs_l = (Vec4)((Mask4)l & magnitude), abs_h = (Vec4)((Mask4)h & magnitude);
+    Vec4 abs_l = l, abs_h = h;
+    make_magnitude(abs_l);
+    make_magnitude(abs_h);
     // max(1, |side|) as std::max(1.0, |side|) gives it: |side| where 1 < |side|, else 1.
     const Mask4 beyond = ((abs_l < big) & ((l - g) > tol * (one < abs_l ? abs_l : one))) |
                          ((abs_h < big) & ((g - h) > tol * (one < abs_h ? abs_h : one)));

@@ -141,17 +141,16 @@ bool all_finite(const Eigen::PlainObjectBase<Derived>& x) {
 
 // The largest |x_i| (0 for none), eight entries a pass: a maximum is the same in any order.
 RIDGELINE_SIMD_CLONES double largest_magnitude(const double* x, Eigen::Index n) {
-  constexpr long long kMagnitude = 0x7fffffffffffffffLL;  // every bit but the sign
-  const Mask4 magnitude_bits = {kMagnitude, kMagnitude, kMagnitude, kMagnitude};
   Vec4 m0 = {}, m1 = {};
   Eigen::Index i = 0;
   for (; i + 8 <= n; i += 8) {
     Vec4 v0, v1;
     std::memcpy(&v0, x + i, sizeof v0);
     std::memcpy(&v1, x + i + 4, sizeof v1);
-    const Vec4 a0 = (Vec4)((Mask4)v0 & magnitude_bits), a1 = (Vec4)((Mask4)v1 & magnitude_bits);
-    m0 = a0 > m0 ? a0 : m0;
-    m1 = a1 > m1 ? a1 : m1;
+    make_magnitude(v0);
+    make_magnitude(v1);
+    m0 = v0 > m0 ? v0 : m0;
+    m1 = v1 > m1 ? v1 : m1;
   }
   const Vec4 m = m0 > m1 ? m0 : m1;
   double largest = std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
