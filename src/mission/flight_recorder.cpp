@@ -25,6 +25,17 @@ FlightRecorder::FlightRecorder(const Scenario& scenario, const world::Terrain& t
     tally_[static_cast<std::size_t>(i)].last_position = world.true_position(i);
   for (const char* kind : {"altitude", "pitch", "turn"})
     result_.metrics.constraint_violations[kind] = 0;
+  // A row a UAV and control step, up to the scenario's duration: reserved once rather than grown
+  // (each regrowth copies the rows and faults in fresh pages). Pages past the rows written are
+  // never touched; the cap bounds the address space a very long scenario asks for.
+  constexpr double kMaxReservedRows = 1 << 20;
+  const double steps =
+      std::floor(scenario.simulation.duration_s / scenario.mpc.control_period_s) + 2.0;
+  const double wanted = n * steps;
+  const auto rows =
+      static_cast<std::size_t>(wanted >= 0.0 ? std::min(wanted, kMaxReservedRows) : 0.0);
+  if (record_) result_.trajectories.reserve(rows);
+  for (std::vector<double>* v : {&step_us_, &step_cpu_us_, &iterations_}) v->reserve(rows);
 }
 
 void FlightRecorder::sensed(int uav, int threat, double t, const TruthWorld& world) {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <span>
 #include <string>
 
@@ -302,6 +303,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   data_.soft_bound = VecX::Zero(cap);
 
   a_entries_.resize(static_cast<std::size_t>(np_) * ns_ * ns_);
+  a_offsets_.resize(a_entries_.size());
+  a_row_bits_.resize(a_entries_.size());
   a_row_begin_.assign(static_cast<std::size_t>(np_) * ns_ + 1, 0);
   c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
   c_row_begin_.assign(ny_ + 1, 0);
@@ -464,16 +467,18 @@ void IncrementalMpc::collect_plant_nonzeros() {
     if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
       // Compared as bits: equal bits give equal sums (a NaN kept gives the same NaN rows).
       // A listed entry that became ±0 has no bit set outside its sign.
+      // Each entry's place in A_j and its row's bit were noted when it was listed.
       std::uint64_t changed = 0, zero = 0;
       Entry* __restrict entries = a_entries_.data();
+      const int* __restrict offsets = a_offsets_.data();
+      const std::uint64_t* __restrict row_bits = a_row_bits_.data();
       for (int e = old_begin; e < old_end; ++e) {
-        Entry& a = entries[e];
-        const double v = A[a.col * ns_ + a.row];
+        const double v = A[offsets[e]];
         const std::uint64_t bits = std::bit_cast<std::uint64_t>(v);
-        const std::uint64_t old = std::bit_cast<std::uint64_t>(a.value);
-        changed |= std::uint64_t{bits != old} << (a.row & 63);
+        const std::uint64_t old = std::bit_cast<std::uint64_t>(entries[e].value);
+        changed |= bits != old ? row_bits[e] : 0;
         zero |= std::uint64_t{(bits << 1) == 0};
-        a.value = v;
+        entries[e].value = v;
       }
       if (zero == 0) {
         a_changed_rows_[j] = changed;
@@ -490,6 +495,8 @@ void IncrementalMpc::collect_plant_nonzeros() {
       for (int l = 0; l < ns_; ++l) {
         const double v = A[l * ns_ + k];
         if (v == 0.0) continue;
+        a_offsets_[n] = l * ns_ + k;
+        a_row_bits_[n] = std::uint64_t{1} << (k & 63);
         a_entries_[n++] = Entry{k, l, v};
         dependents[l] |= std::uint64_t{1} << (k & 63);
       }
@@ -1328,17 +1335,19 @@ const IncrementalMpcResult& IncrementalMpc::solve() {
     result_.prediction_rows_computed = 0;
     return result_;
   }
-  auto start = Clock::now();
+  const bool timed = options_.time_parts;
+  constexpr double kUntimed = std::numeric_limits<double>::quiet_NaN();
+  auto start = timed ? Clock::now() : Clock::time_point{};
   build_prediction();
   build_cost();
-  result_.condensing_time_us = elapsed_us(start);
+  result_.condensing_time_us = timed ? elapsed_us(start) : kUntimed;
   assemble_qp();
-  start = Clock::now();
+  if (timed) start = Clock::now();
   const int old_soft_rows_in_qp = soft_rows_in_qp_;
   assemble_soft_rows();
   renumber_soft_rows(old_soft_rows_in_qp);
   result_.soft_rows_in_qp = kept_count_;
-  result_.soft_rows_time_us = elapsed_us(start);
+  result_.soft_rows_time_us = timed ? elapsed_us(start) : kUntimed;
   const qp::QpResult& qp_result = solver_.solve(qp_);
   result_.qp_status = qp_result.status;
   result_.qp_iterations = qp_result.iterations;

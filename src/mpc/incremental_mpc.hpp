@@ -123,6 +123,10 @@ struct IncrementalMpcOptions {
   /// assemble_soft_rows): the solution is the same, the QP smaller. Off only to inspect every
   /// row in qp_problem().
   bool drop_redundant_soft_rows = true;
+  /// Time the condensing and the soft rows (IncrementalMpcResult::condensing_time_us,
+  /// soft_rows_time_us): four readings of the steady clock a step, about 0.1 µs. Off, both are
+  /// NaN.
+  bool time_parts = true;
   qp::QpSettings qp_settings;
 };
 
@@ -227,8 +231,8 @@ struct IncrementalMpcResult {
   /// values (see build_prediction).
   int prediction_rows_computed = 0;
   double qp_time_us = 0.0;          ///< the QP solve (QpResult::solve_time_us)
-  double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock)
-  double soft_rows_time_us = 0.0;   ///< the soft rows written into the QP (wall clock)
+  double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock; NaN untimed)
+  double soft_rows_time_us = 0.0;   ///< the soft rows written into the QP (wall clock; NaN untimed)
 
   bool solved() const { return qp_status == qp::QpStatus::kSolved; }
 };
@@ -315,6 +319,10 @@ class IncrementalMpc {
   // a_row_begin_[j·n_s + k + 1]), and row k of C is c_entries_[c_row_begin_[k], …[k + 1]).
   std::vector<Entry> a_entries_;  // capacity Np·n_s²
   std::vector<int> a_row_begin_;  // Np·n_s + 1 offsets into a_entries_
+  // Of a_entries_[e]: its index in A_j's column-major storage (col·n_s + row), and its row's
+  // bit in a row mask (bit row & 63), for the values' update at each step.
+  std::vector<int> a_offsets_;
+  std::vector<std::uint64_t> a_row_bits_;
   std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
   std::vector<int> c_row_begin_;  // n_y + 1 offsets into c_entries_
   // The nonzeros of B_j for the moves (j < Nc), listed the same way (row k of B_j:

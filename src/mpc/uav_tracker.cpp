@@ -58,6 +58,7 @@ IncrementalMpcOptions tracker_mpc_options(const UavTrackerOptions& o) {
   m.slack_linear_weight = o.slack_linear_weight;
   m.slack_quadratic_weight = o.slack_quadratic_weight;
   m.qp_settings = o.qp_settings;
+  m.time_parts = o.time_step_parts;
   return m;
 }
 
@@ -482,13 +483,14 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   Eigen::Map<Vec3>(d.disturbance_delta.col(0).data()) = delta_wind;
   Eigen::Map<vehicle::State>(d.state_offset.col(0).data()).noalias() =
       d.B[0] * (u_prev - mean_command);
-  const auto linearized = Clock::now();
+  const bool time_parts = options_.time_step_parts;
+  const auto linearized = time_parts ? Clock::now() : Clock::time_point{};
 
   // 5–6. Limits and soft rows.
   set_limits(state);
-  const auto limited = Clock::now();
+  const auto limited = time_parts ? Clock::now() : Clock::time_point{};
   add_soft_rows(t_s, state, environment);
-  const auto soft_rows_added = Clock::now();
+  const auto soft_rows_added = time_parts ? Clock::now() : Clock::time_point{};
 
   // 7. Solve and apply.
   const IncrementalMpcResult& r = mpc_.solve();
@@ -528,12 +530,17 @@ const UavTrackerResult& UavTracker::step(double t_s, const vehicle::State& state
   };
   result_.step_time_us = us(Clock::now() - start);
   UavTrackerStepParts& parts = result_.parts;
-  parts.linearization_us = us(linearized - start);
-  parts.condensing_us = r.condensing_time_us;
-  parts.soft_rows_us = us(soft_rows_added - limited) + r.soft_rows_time_us;
-  parts.qp_us = r.qp_time_us;
-  parts.other_us = result_.step_time_us - parts.linearization_us - parts.condensing_us -
-                   parts.soft_rows_us - parts.qp_us;
+  if (time_parts) {
+    parts.linearization_us = us(linearized - start);
+    parts.condensing_us = r.condensing_time_us;
+    parts.soft_rows_us = us(soft_rows_added - limited) + r.soft_rows_time_us;
+    parts.qp_us = r.qp_time_us;
+    parts.other_us = result_.step_time_us - parts.linearization_us - parts.condensing_us -
+                     parts.soft_rows_us - parts.qp_us;
+  } else {
+    constexpr double kUntimed = std::numeric_limits<double>::quiet_NaN();
+    parts = {kUntimed, kUntimed, kUntimed, kUntimed, kUntimed};
+  }
   result_.step_cpu_time_us = time_cpu ? (thread_cpu_time_s() - cpu_start_s) * 1e6
                                       : std::numeric_limits<double>::quiet_NaN();
   return result_;

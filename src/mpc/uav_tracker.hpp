@@ -114,10 +114,13 @@ struct UavTrackerOptions {
   /// active-set method (exact vertices; the interior point is its fallback).
   qp::QpSettings qp_settings{.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};
   /// The step's thread CPU time (step_cpu_time_us) is read on every this many steps, the
-  /// others report NaN: the thread CPU clock is a system call (no vDSO), two of them about
-  /// 1 µs a step on a virtual machine, 5 % of a simulated flight. 0: never (a caller that
-  /// times the step from outside, such as `bench mpc`). ≥ 0.
+  /// others report NaN: the thread CPU clock is a system call (no vDSO), 0.5 to 1.3 µs each on
+  /// the virtual machines measured, two a step: 5 to 13 % of a simulated flight. 0: never (a
+  /// caller that times the step from outside, such as `bench mpc`). ≥ 0.
   int cpu_time_period_steps = 1;
+  /// Split step_time_us into its parts (UavTrackerResult::parts): seven more readings of the
+  /// steady clock a step, about 0.2 µs (1 % of a step). Off, the parts are NaN.
+  bool time_step_parts = true;
 };
 
 /// Throws ridgeline::InputError naming the field (e.g. `prediction_step_s`) and the reason.
@@ -138,8 +141,8 @@ struct TrackerEnvironment {
   std::span<const double> neighbour_separation_m = {};
 };
 
-/// Where one step's time went, in wall-clock µs (steady clock: cheap to read, so the parts
-/// cost nothing measurable; a preempted part includes the wait).
+/// Where one step's time went, in wall-clock µs (steady clock, about 30 ns a reading; a
+/// preempted part includes the wait). NaN when UavTrackerOptions::time_step_parts is off.
 struct UavTrackerStepParts {
   double linearization_us = 0.0;  ///< steps 1–4: increment, nominal, Jacobians, wind, reference
   double condensing_us = 0.0;     ///< the MPC's Φ, free response, H and f
@@ -158,7 +161,7 @@ struct UavTrackerResult {
   int qp_iterations = 0;
   double qp_time_us = 0.0;
   double step_time_us = 0.0;  ///< the whole step: history, linearization, rows, solve
-  UavTrackerStepParts parts;  ///< step_time_us split; the parts sum to it
+  UavTrackerStepParts parts;  ///< step_time_us split; the parts sum to it (NaN untimed)
   /// The same step in this thread's CPU time: without the time a shared machine's other
   /// processes held the core, which the wall-clock figure includes. NaN on the steps
   /// UavTrackerOptions::cpu_time_period_steps leaves unmeasured.

@@ -51,8 +51,10 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
   mission::TruthWorld world(scenario, terrain);
   // The plan names its UAVs; a UAV the allocation left without targets has no plan entry and
   // stays idle: its agent finishes at once and the UAV holds at its start (still broadcasting,
-  // so the others keep their distance).
-  std::vector<planning::UavPlan> plans(static_cast<std::size_t>(n));
+  // so the others keep their distance). The plans are read in place, not copied (each holds its
+  // sampled reference).
+  const planning::UavPlan no_plan;
+  std::vector<const planning::UavPlan*> plans(static_cast<std::size_t>(n), &no_plan);
   for (const planning::UavPlan& up : plan.uavs) {
     const auto it = std::find_if(scenario.uavs.begin(), scenario.uavs.end(),
                                  [&](const mission::UavSpec& u) { return u.name == up.name; });
@@ -60,7 +62,7 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
       throw InputError("plan.uavs", fmt::format("'{}' is not a UAV of the scenario", up.name));
     if (!up.timing.reference)
       throw InputError(fmt::format("plan.uavs.{}.reference", up.name), "is missing");
-    plans[static_cast<std::size_t>(it - scenario.uavs.begin())] = up;
+    plans[static_cast<std::size_t>(it - scenario.uavs.begin())] = &up;
   }
   // Predictions go at once only to the agents within reach (in_process_transport.hpp): the
   // proposed agents' reach (swarm/prediction_reach.hpp). The baselines get every broadcast.
@@ -71,14 +73,14 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
     std::vector<swarm::AgentOptions> agent_options;
     for (int i = 0; i < n; ++i)
       agent_options.push_back(
-          mission::make_agent_options(scenario, i, plans[static_cast<std::size_t>(i)]));
+          mission::make_agent_options(scenario, i, *plans[static_cast<std::size_t>(i)]));
     reach = swarm::prediction_reach(agent_options, scenario.safety, link,
                                     1.0 / scenario.simulation.message_rate_hz);
   }
   swarm::InProcessTransport transport(n, link, derive_seed(scenario.seed, kTransportStream), reach);
   std::vector<std::unique_ptr<swarm::UavAgent>> agents;
   for (int i = 0; i < n; ++i) {
-    const planning::UavPlan& up = plans[static_cast<std::size_t>(i)];
+    const planning::UavPlan& up = *plans[static_cast<std::size_t>(i)];
     std::shared_ptr<const mpc::SampledReference> reference;
     if (up.timing.reference) {
       reference = std::make_shared<const mpc::SampledReference>(*up.timing.reference);
@@ -230,7 +232,7 @@ mission::MissionResult fly_mission(const mission::Scenario& scenario,
   for (int i = 0; i < n; ++i) {
     const swarm::UavAgent& a = *agents[static_cast<std::size_t>(i)];
     mission::UavOutcome& o = outcomes[static_cast<std::size_t>(i)];
-    o.targets_assigned = static_cast<int>(plans[static_cast<std::size_t>(i)].targets.size());
+    o.targets_assigned = static_cast<int>(plans[static_cast<std::size_t>(i)]->targets.size());
     o.targets_inspected = a.targets_inspected();
     o.missed_targets = a.missed_targets();
     o.finished = a.finished();

@@ -620,6 +620,42 @@ TEST(UavTracker, CpuTimePeriodTimesEveryNthStepOnly) {
   }
 }
 
+// time_step_parts off: the parts are NaN, the whole step is still timed, and the commands and
+// predictions are those of a tracker that times its parts (the clock is not an input). On, the
+// parts are finite and sum to the step.
+TEST(UavTracker, UntimedPartsAreNaNAndChangeNothing) {
+  const HelixReference ref = circle_150m();
+  UavTrackerOptions timed;
+  UavTrackerOptions untimed;
+  untimed.time_step_parts = false;
+  UavTracker a(timed, world::SafetyLimits{});
+  UavTracker b(untimed, world::SafetyLimits{});
+  State s = state_on(ref.at(0.0));
+  const Vec3 wind(1.0, 0.5, 0.0);
+  for (int k = 0; k < 20; ++k) {
+    const double t = k * kControlPeriod;
+    const UavTrackerResult& ra = a.step(t, s, wind, ref, TrackerEnvironment{});
+    const UavTrackerResult& rb = b.step(t, s, wind, ref, TrackerEnvironment{});
+    ASSERT_TRUE(rb.qp_status == qp::QpStatus::kSolved) << k;
+    EXPECT_EQ(ra.command, rb.command) << k;
+    EXPECT_EQ(ra.predicted_positions_m, rb.predicted_positions_m) << k;
+    EXPECT_GE(rb.step_time_us, 0.0) << k;
+    EXPECT_GE(rb.qp_time_us, 0.0) << k;
+    for (const double part : {rb.parts.linearization_us, rb.parts.condensing_us,
+                              rb.parts.soft_rows_us, rb.parts.qp_us, rb.parts.other_us}) {
+      EXPECT_TRUE(std::isnan(part)) << k;
+    }
+    const UavTrackerStepParts& p = ra.parts;
+    for (const double part : {p.linearization_us, p.condensing_us, p.soft_rows_us, p.qp_us}) {
+      EXPECT_GE(part, 0.0) << k;
+    }
+    EXPECT_NEAR(p.linearization_us + p.condensing_us + p.soft_rows_us + p.qp_us + p.other_us,
+                ra.step_time_us, 1e-9 * ra.step_time_us + 1e-12)
+        << k;
+    s = vehicle::rk4_step(s, ra.command, wind, timed.vehicle, kControlPeriod);
+  }
+}
+
 TEST(UavTrackerOptionsCheck, RejectsBadOptionsNamingTheField) {
   UavTrackerOptions o;
   o.prediction_step_s = 0.0;
