@@ -102,13 +102,15 @@ BaselineAgent::BaselineAgent(const BaselineAgentOptions& options, const world::S
   require(options.max_command_rate.allFinite() && options.max_command_rate.minCoeff() > 0.0,
           "max_command_rate", "must be positive and finite");
   last_command_ = vehicle::Input(options.vehicle.cruise_speed_m_s, 0.0, 0.0);
-  prediction_.uav = options.id;
-  prediction_.step_s = options.prediction_step_s;
+  swarm::PredictedTrajectory empty;  // before the first control(): no positions yet
+  empty.uav = options.id;
+  empty.step_s = options.prediction_step_s;
+  prediction_ = std::make_shared<const swarm::Message>(std::move(empty));
 }
 
 void BaselineAgent::receive(const swarm::Envelope& envelope) {
   ++counters_.messages_received;
-  if (swarm::check_message(envelope.message, options_.num_uavs).has_value() ||
+  if (swarm::check_message(envelope.message(), options_.num_uavs).has_value() ||
       envelope.sender < 0 || envelope.sender >= options_.num_uavs ||
       envelope.sender == options_.id) {
     ++counters_.messages_rejected;
@@ -116,7 +118,7 @@ void BaselineAgent::receive(const swarm::Envelope& envelope) {
   }
   // Only positions are shared between UAVs of these methods (issue 6): threat reports of
   // others are not used.
-  if (const auto* p = std::get_if<swarm::PredictedTrajectory>(&envelope.message)) {
+  if (const auto* p = std::get_if<swarm::PredictedTrajectory>(&envelope.message())) {
     if (p->uav != envelope.sender || p->positions_m.empty()) {
       ++counters_.messages_rejected;
       return;
@@ -187,8 +189,8 @@ swarm::AgentStep BaselineAgent::control(double t_s, const vehicle::State& measur
   if (finished_) {
     out.mode = swarm::AgentMode::kFinished;
     out.reference_m = position;
-    prediction_.stamp_s = t_s;
-    prediction_.positions_m.assign(static_cast<std::size_t>(options_.prediction_steps), position);
+    publish_prediction(
+        t_s, std::vector<Vec3>(static_cast<std::size_t>(options_.prediction_steps), position));
     return out;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -219,13 +221,19 @@ swarm::AgentStep BaselineAgent::control(double t_s, const vehicle::State& measur
   out.reference_m = reference_->at(std::min(t_s, reference_->end_time_s())).position_m;
   out.step_time_us =
       std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
-  prediction_.stamp_s = t_s;
-  prediction_.positions_m = std::move(predicted);
-  if (prediction_.positions_m.empty())
-    prediction_.positions_m.assign(static_cast<std::size_t>(options_.prediction_steps), position);
+  if (predicted.empty())
+    predicted.assign(static_cast<std::size_t>(options_.prediction_steps), position);
+  publish_prediction(t_s, std::move(predicted));
   return out;
 }
 
-swarm::PredictedTrajectory BaselineAgent::prediction_message() const { return prediction_; }
+void BaselineAgent::publish_prediction(double t_s, std::vector<Vec3> positions) {
+  swarm::PredictedTrajectory p;
+  p.uav = options_.id;
+  p.stamp_s = t_s;
+  p.step_s = options_.prediction_step_s;
+  p.positions_m = std::move(positions);
+  prediction_ = std::make_shared<const swarm::Message>(std::move(p));
+}
 
 }  // namespace ridgeline::baselines

@@ -66,7 +66,7 @@ class BaselineAgent : public swarm::UavAgent {
              std::vector<swarm::Message>& outbox) override;
   swarm::AgentStep control(double t_s, const vehicle::State& measured_state,
                            const Vec3& measured_wind_m_s) override;
-  swarm::PredictedTrajectory prediction_message() const override;
+  std::shared_ptr<const swarm::Message> prediction_message() const override { return prediction_; }
   bool finished() const override { return finished_; }
   int targets_inspected() const override { return next_target_; }
   const std::vector<std::string>& missed_targets() const override { return missed_; }
@@ -122,7 +122,10 @@ class BaselineAgent : public swarm::UavAgent {
   int next_target_ = 0;
   std::vector<std::string> missed_;
   swarm::AgentCounters counters_;
-  swarm::PredictedTrajectory prediction_;
+  // The prediction of positions at t_s + k·step, k = 1.., as the message broadcast.
+  void publish_prediction(double t_s, std::vector<Vec3> positions);
+
+  std::shared_ptr<const swarm::Message> prediction_;  ///< a PredictedTrajectory, never null
 };
 
 }  // namespace ridgeline::baselines

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <variant>
@@ -115,12 +116,23 @@ std::optional<std::string> check_plan(const ReferencePlan& plan, int num_uavs, i
 
 using Message = std::variant<PredictedTrajectory, ThreatReport, StateReport, ReferencePlan>;
 
-/// A message as delivered: who sent it and when.
+/// A message as delivered: who sent it and when. The message is held by a shared, immutable
+/// copy: a broadcast reaches every receiver (and a receiver keeps a neighbour's prediction)
+/// without copying its ~2 kB of positions once a receiver.
 struct Envelope {
+  /// Shares `shared` (not null).
+  Envelope(int sender_id, double sent, double delivered, std::shared_ptr<const Message> shared)
+      : sender(sender_id), sent_s(sent), delivered_s(delivered), payload(std::move(shared)) {}
+  /// Holds its own copy of `message`.
+  Envelope(int sender_id, double sent, double delivered, Message message)
+      : Envelope(sender_id, sent, delivered, std::make_shared<const Message>(std::move(message))) {}
+
+  const Message& message() const { return *payload; }
+
   int sender = -1;
   double sent_s = 0.0;
   double delivered_s = 0.0;
-  Message message;
+  std::shared_ptr<const Message> payload;  ///< never null
 };
 
 /// Checks a received message before anyone acts on it: finite numbers, sizes within bounds

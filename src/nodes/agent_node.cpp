@@ -190,13 +190,12 @@ AgentNodeResult run_agent_node(const mission::Scenario& scenario,
     transport.receive(id, m.t_s, inbox);
     for (const swarm::Envelope& e : inbox)
       // Plans reach the agent through the plan link (full reference samples, versions).
-      if (!std::holds_alternative<swarm::ReferencePlan>(e.message)) agent->receive(e);
+      if (!std::holds_alternative<swarm::ReferencePlan>(e.message())) agent->receive(e);
     outbox.clear();
     agent->sense(m.t_s, m.threats, outbox);
     for (const swarm::Message& msg : outbox) transport.publish(id, m.t_s, msg);
     const swarm::AgentStep step = agent->control(m.t_s, m.state, m.wind_m_s);
-    const swarm::PredictedTrajectory prediction = agent->prediction_message();
-    transport.publish(id, m.t_s, prediction);
+    transport.publish(id, m.t_s, agent->prediction_message());
 
     transport_dds::CommandReport a;
     a.uav = id;
@@ -219,7 +218,7 @@ AgentNodeResult run_agent_node(const mission::Scenario& scenario,
     a.counters = agent->counters();
     const swarm::TransportStats ts = transport.stats();
     a.counters.messages_rejected += ts.rejected + link.stats().rejected + plans.rejected();
-    a.prediction_stamp_s = prediction.stamp_s;
+    a.prediction_stamp_s = agent->prediction().stamp_s;
     a.loop_period_s = last_answer == Clock::time_point{}
                           ? 0.0
                           : std::chrono::duration<double>(taken - last_answer).count();

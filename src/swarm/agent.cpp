@@ -52,6 +52,9 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
       guard_(options.separation_guard, options.tracker.vehicle, command_rate_) {
   require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
   require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
+  // Before the first control(): no positions yet.
+  prediction_ = std::make_shared<const Message>(
+      PredictedTrajectory{options.id, 0.0, options.tracker.prediction_step_s, {}});
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
   require(options.end_radius_m > 0.0, "end_radius_m", "must be positive");
   require(options.threat_report_period_s > 0.0, "threat_report_period_s", "must be positive");
@@ -121,34 +124,33 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
 
 void Agent::receive(const Envelope& envelope) {
   ++counters_.messages_received;
-  if (check_message(envelope.message, options_.num_uavs).has_value() ||
-      envelope.sender < 0 || envelope.sender >= options_.num_uavs ||
-      envelope.sender == options_.id) {
+  if (check_message(envelope.message(), options_.num_uavs).has_value() || envelope.sender < 0 ||
+      envelope.sender >= options_.num_uavs || envelope.sender == options_.id) {
     ++counters_.messages_rejected;
     return;
   }
-  if (const auto* p = std::get_if<PredictedTrajectory>(&envelope.message)) {
+  if (const auto* p = std::get_if<PredictedTrajectory>(&envelope.message())) {
     if (p->uav != envelope.sender || p->positions_m.empty()) {
       ++counters_.messages_rejected;
       return;
     }
     auto it = neighbours_.find(p->uav);
-    if (it != neighbours_.end() && it->second.prediction.stamp_s >= p->stamp_s)
+    if (it != neighbours_.end() && it->second.prediction().stamp_s >= p->stamp_s)
       return;  // reordered
     // A neighbour this UAV yields to has moved its intent: the slot may no longer be free. A
     // re-plan that redraws the same path (a detour refreshed) changes nothing here.
     if (p->uav < options_.id && it != neighbours_.end() &&
-        it->second.prediction.intent_revision != p->intent_revision) {
+        it->second.prediction().intent_revision != p->intent_revision) {
       constexpr double kMoved = 2.0;  // m: well below a level or the conflict margin
-      const PredictedTrajectory& old = it->second.prediction;
+      const PredictedTrajectory& old = it->second.prediction();
       for (std::size_t k = 0; k < p->intent_m.size() && !neighbour_replan_requested_; ++k) {
         const double tau = p->intent_start_s + p->intent_step_s * static_cast<double>(k);
         neighbour_replan_requested_ =
             tau > old.stamp_s && (messages::expected_position(old, tau) - p->intent_m[k]).norm() > kMoved;
       }
     }
-    neighbours_[p->uav].prediction = *p;
-  } else if (const auto* r = std::get_if<ThreatReport>(&envelope.message)) {
+    neighbours_[p->uav].message = envelope.payload;  // shared, not copied
+  } else if (const auto* r = std::get_if<ThreatReport>(&envelope.message())) {
     auto it = threats_.find(r->threat_id);
     if (it != threats_.end() && it->second.threat.appear_s >= r->stamp_s) return;
     const bool is_new = it == threats_.end();
@@ -359,10 +361,10 @@ bool Agent::choose_slot(double t_s, const Vec3& position_m) {
   yielded_positions_.clear();
   int yielded = 0;
   for (const auto& [id, n] : neighbours_) {
-    if (!yields_to(id, n.prediction)) continue;
-    if ((messages::expected_position(n.prediction, t_s) - position_m).norm() > reach) continue;
+    if (!yields_to(id, n.prediction())) continue;
+    if ((messages::expected_position(n.prediction(), t_s) - position_m).norm() > reach) continue;
     for (int i = 0; i < samples; ++i)
-      yielded_positions_.push_back(messages::expected_position(n.prediction, t_s + i * kStep));
+      yielded_positions_.push_back(messages::expected_position(n.prediction(), t_s + i * kStep));
     ++yielded;
   }
 
@@ -492,7 +494,7 @@ int Agent::add_neighbour_conflicts(double t_s, std::vector<world::Threat>& obsta
   constexpr double kCheckStep = 0.25;   // s; at 20 m/s closing speed, 5 m between checks
   int added = 0;
   for (const auto& [id, n] : neighbours_) {
-    const PredictedTrajectory& nb = n.prediction;
+    const PredictedTrajectory& nb = n.prediction();
     const int count = static_cast<int>(nb.positions_m.size());
     // Mean velocity over the broadcast horizon: extrapolating the last segment alone would
     // magnify the end of a turn.
@@ -555,9 +557,9 @@ void Agent::select_neighbours(double t_s, const Vec3& position_m) {
   nearby_.clear();
   bool stale = false;
   for (const auto& [id, n] : neighbours_) {
-    const double age = std::max(0.0, t_s - n.prediction.stamp_s);
+    const double age = std::max(0.0, t_s - n.prediction().stamp_s);
     stale = stale || age > options_.neighbour_stale_s;
-    const double distance = (messages::predicted_position(n.prediction, t_s) - position_m).norm();
+    const double distance = (messages::predicted_position(n.prediction(), t_s) - position_m).norm();
     if (distance <= reach + v_max * age) nearby_.push_back({distance, id});
   }
   counters_.stale_neighbour_steps += stale ? 1 : 0;
@@ -568,7 +570,7 @@ void Agent::select_neighbours(double t_s, const Vec3& position_m) {
   guard_yields_to_me_.resize(nearby_.size());
   for (std::size_t k = 0; k < nearby_.size(); ++k) {
     const int id = nearby_[k].second;
-    guard_neighbours_[k] = &neighbours_.at(id).prediction;
+    guard_neighbours_[k] = &neighbours_.at(id).prediction();
     guard_yields_to_me_[k] = yields_to(id, *guard_neighbours_[k]) ? 0 : 1;
   }
   neighbour_buffer_.resize(count);
@@ -681,8 +683,9 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     out.mode = mode_;
     out.command = vehicle::Input::Zero();
     out.reference_m = position;
-    prediction_ = PredictedTrajectory{options_.id, t_s, options_.tracker.prediction_step_s,
-                                      std::vector<Vec3>(options_.tracker.prediction_horizon, position)};
+    prediction_ = std::make_shared<const Message>(
+        PredictedTrajectory{options_.id, t_s, options_.tracker.prediction_step_s,
+                            std::vector<Vec3>(options_.tracker.prediction_horizon, position)});
     return out;
   }
   forget_old_threats(t_s);
@@ -741,17 +744,9 @@ AgentStep Agent::control(double t_s, const vehicle::State& measured,
     p.intent_step_s = options_.intent_step_s;
     p.intent_m = intent_;
     p.intent_revision = intent_revision_;
-    prediction_ = std::move(p);
+    prediction_ = std::make_shared<const Message>(std::move(p));
   }
   return out;
-}
-
-PredictedTrajectory Agent::prediction_message() const {
-  if (prediction_) return *prediction_;
-  PredictedTrajectory p;
-  p.uav = options_.id;
-  p.step_s = options_.tracker.prediction_step_s;
-  return p;
 }
 
 }  // namespace ridgeline::swarm

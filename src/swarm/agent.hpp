@@ -200,8 +200,7 @@ class Agent final : public UavAgent {
   AgentStep control(double t_s, const vehicle::State& measured_state,
                     const Vec3& measured_wind_m_s) override;
 
-  /// The latest prediction as a message (empty positions before the first control()).
-  PredictedTrajectory prediction_message() const override;
+  std::shared_ptr<const Message> prediction_message() const override { return prediction_; }
 
   AgentMode mode() const { return mode_; }
   bool finished() const override { return mode_ == AgentMode::kFinished; }
@@ -220,7 +219,10 @@ class Agent final : public UavAgent {
     double last_reported_s = -1e9;  ///< last time this agent broadcast it
   };
   struct KnownNeighbour {
-    PredictedTrajectory prediction;  ///< the newest received, as broadcast
+    std::shared_ptr<const Message> message;  ///< the newest received, as broadcast (shared)
+    const PredictedTrajectory& prediction() const {
+      return std::get<PredictedTrajectory>(*message);
+    }
   };
 
   void update_mission(double t_s, const Vec3& position_m);
@@ -300,7 +302,7 @@ class Agent final : public UavAgent {
   double last_replan_s_ = -1e9;
   bool replan_requested_ = true;
   vehicle::Input last_command_ = vehicle::Input::Zero();
-  std::optional<PredictedTrajectory> prediction_;
+  std::shared_ptr<const Message> prediction_;  ///< a PredictedTrajectory, never null
   AgentCounters counters_;
   std::optional<vehicle::State> estimate_;
   Vec3 wind_estimate_ = Vec3::Zero();

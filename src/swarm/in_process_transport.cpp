@@ -48,9 +48,10 @@ void InProcessTransport::rebuild_grid() {
   }
 }
 
-void InProcessTransport::publish(int sender, double now_s, const Message& message) {
+void InProcessTransport::publish(int sender, double now_s, std::shared_ptr<const Message> shared) {
+  if (shared == nullptr) throw InputError("message", "is null");
   ++stats_.published;
-  const auto* prediction = std::get_if<PredictedTrajectory>(&message);
+  const auto* prediction = std::get_if<PredictedTrajectory>(shared.get());
   bool by_reach = prediction != nullptr && std::isfinite(reach_.reach_m) &&
                   !prediction->positions_m.empty() && sender >= 0 && sender < num_participants_;
   if (by_reach) {
@@ -80,7 +81,6 @@ void InProcessTransport::publish(int sender, double now_s, const Message& messag
       std::sort(near_.begin(), near_.end());
     }
   }
-  const auto shared = std::make_shared<const Message>(message);
   const int count = by_reach ? static_cast<int>(near_.size()) : num_participants_;
   for (int c = 0; c < count; ++c) {
     const int receiver = by_reach ? near_[static_cast<std::size_t>(c)] : c;
@@ -103,7 +103,7 @@ void InProcessTransport::receive(int receiver, double now_s, std::vector<Envelop
   auto& inbox = inboxes_[static_cast<std::size_t>(receiver)];
   while (!inbox.empty() && inbox.top().delivered_s <= now_s) {
     const Pending& p = inbox.top();
-    out.push_back(Envelope{p.sender, p.sent_s, p.delivered_s, *p.message});
+    out.emplace_back(p.sender, p.sent_s, p.delivered_s, p.message);
     inbox.pop();
     ++stats_.delivered;
   }

@@ -43,14 +43,15 @@ class InProcessTransport : public Transport {
   InProcessTransport(int num_participants, const LinkModel& link, std::uint64_t seed,
                      const PredictionReach& reach = {});
 
-  void publish(int sender, double now_s, const Message& message) override;
+  using Transport::publish;
+  void publish(int sender, double now_s, std::shared_ptr<const Message> message) override;
   void receive(int receiver, double now_s, std::vector<Envelope>& out) override;
   TransportStats stats() const override { return stats_; }
 
  private:
-  // One copy of a published message, shared by every receiver's queue (a prediction with its
-  // intent is about 2 kB: copying it for each of N − 1 receivers was most of the transport's
-  // time in large teams).
+  // The published message itself, shared by every receiver's queue and then envelope (a
+  // prediction with its intent is about 2 kB: copying it for each of N − 1 receivers was most of
+  // the transport's time in large teams).
   struct Pending {
     int sender = -1;
     double sent_s = 0.0;

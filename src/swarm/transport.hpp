@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "swarm/messages.hpp"
@@ -24,7 +25,12 @@ class Transport {
  public:
   virtual ~Transport() = default;
   /// Broadcasts `message` from participant `sender` at time now_s to every other participant.
-  virtual void publish(int sender, double now_s, const Message& message) = 0;
+  /// The receivers share the one immutable copy.
+  virtual void publish(int sender, double now_s, std::shared_ptr<const Message> message) = 0;
+  /// The same for a message the caller keeps: it is copied once.
+  void publish(int sender, double now_s, const Message& message) {
+    publish(sender, now_s, std::make_shared<const Message>(message));
+  }
   /// Appends to `out` every message for `receiver` whose delivery time is ≤ now_s, in
   /// delivery order (which may differ from the order of sending).
   virtual void receive(int receiver, double now_s, std::vector<Envelope>& out) = 0;

@@ -85,8 +85,13 @@ class UavAgent {
   /// One control period at t with the measured state and wind.
   virtual AgentStep control(double t_s, const vehicle::State& measured_state,
                             const Vec3& measured_wind_m_s) = 0;
-  /// The latest prediction as a message (empty positions before the first control()).
-  virtual PredictedTrajectory prediction_message() const = 0;
+  /// The latest prediction as the message to broadcast, shared with the transport (it holds a
+  /// PredictedTrajectory; empty positions before the first control()). Never null.
+  virtual std::shared_ptr<const Message> prediction_message() const = 0;
+  /// The same prediction, read (valid until the next control()).
+  const PredictedTrajectory& prediction() const {
+    return std::get<PredictedTrajectory>(*prediction_message());
+  }
 
   virtual bool finished() const = 0;
   virtual int targets_inspected() const = 0;

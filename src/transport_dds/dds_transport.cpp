@@ -90,17 +90,19 @@ int DdsTransport::matched_plan_readers() const {
   return static_cast<int>(status.current_count);
 }
 
-void DdsTransport::publish(int sender, double /*now_s*/, const swarm::Message& message) {
+void DdsTransport::publish(int sender, double /*now_s*/,
+                           std::shared_ptr<const swarm::Message> message) {
   if (sender != options_.participant_id)
     throw InputError("sender", fmt::format("this transport publishes for participant {}, not {}",
                                            options_.participant_id, sender));
+  if (message == nullptr) throw InputError("message", "is null");
   Impl& d = *impl_;
   ++stats_.published;
   std::visit(
       [&](const auto& m) {
         write_message(*d.ends<std::remove_cvref_t<decltype(m)>>().first, m, d.arena);
       },
-      message);
+      *message);
   ++stats_.sent;
 }
 

@@ -49,7 +49,8 @@ class DdsTransport : public swarm::Transport {
 
   /// Writes `message` (sender must be this transport's participant_id; now_s is unused: the
   /// message carries its own stamp).
-  void publish(int sender, double now_s, const swarm::Message& message) override;
+  using swarm::Transport::publish;
+  void publish(int sender, double now_s, std::shared_ptr<const swarm::Message> message) override;
   /// Delivers to `receiver` (must be this transport's participant_id) what has arrived.
   void receive(int receiver, double now_s, std::vector<swarm::Envelope>& out) override;
   swarm::TransportStats stats() const override { return stats_; }

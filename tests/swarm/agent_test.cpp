@@ -99,6 +99,27 @@ TEST(Agent, OwnSensingIsReportedOncePerPeriod) {
   EXPECT_EQ(a.counters().threat_reports_sent, 2u);
 }
 
+// The prediction to broadcast is one shared message a control step: the transport's every tick
+// between two control steps sends the same copy, and the next control step makes a new one.
+TEST(Agent, ThePredictionMessageIsOneSharedCopyAControlStep) {
+  Agent a(options(2, 3), world::SafetyLimits{}, line_east(0.0), flat());
+  const std::shared_ptr<const Message> before = a.prediction_message();
+  ASSERT_NE(before, nullptr);
+  EXPECT_EQ(a.prediction().uav, 2);
+  EXPECT_TRUE(a.prediction().positions_m.empty());  // nothing flown yet
+  a.control(0.0, state_at(Vec3(0, 0, 100)), Vec3::Zero());
+  const std::shared_ptr<const Message> first = a.prediction_message();
+  EXPECT_NE(first.get(), before.get());
+  EXPECT_EQ(a.prediction_message().get(), first.get());
+  EXPECT_FALSE(check_message(*first, 3).has_value());
+  EXPECT_EQ(std::get<PredictedTrajectory>(*first).positions_m.size(), 40u);
+  a.control(0.02, state_at(Vec3(0.4, 0, 100)), Vec3::Zero());
+  EXPECT_NE(a.prediction_message().get(), first.get());
+  // What was broadcast before stays as it was (a receiver may still hold it).
+  EXPECT_TRUE(std::get<PredictedTrajectory>(*before).positions_m.empty());
+  EXPECT_EQ(std::get<PredictedTrajectory>(*first).uav, 2);
+}
+
 // A threat sits on the line ahead: the agent's next control step re-plans a detour, and the
 // reference it tracks keeps away from the threat.
 TEST(Agent, KnownThreatOnTheReferenceTriggersADetour) {
@@ -112,8 +133,8 @@ TEST(Agent, KnownThreatOnTheReferenceTriggersADetour) {
   EXPECT_TRUE(a.reference().has_detour());
   const Vec3 beside = a.reference().at(30.0).position_m;
   EXPECT_GE(std::hypot(beside.x() - 300.0, beside.y()), 40.0 + 10.0 + 15.0 - 1.0);
-  EXPECT_EQ(a.prediction_message().uav, 0);
-  EXPECT_EQ(a.prediction_message().positions_m.size(), 40u);
+  EXPECT_EQ(a.prediction().uav, 0);
+  EXPECT_EQ(a.prediction().positions_m.size(), 40u);
 }
 
 // With optimizer_replan the conflict is re-planned by the local optimizer: the new reference
@@ -179,7 +200,7 @@ TEST(Agent, TheHigherIdYieldsToAHeadOnNeighbourByALevel) {
   EXPECT_FALSE(yielding.reference().has_detour());
   EXPECT_GE(yielding.reference().at(7.5).position_m.z() - 100.0, 15.0 - 1e-9);
   // Its intent tells the others where it will be beyond its prediction: a level up.
-  EXPECT_GT(yielding.prediction_message().intent_m.at(7).z(), 100.0 + 14.0);
+  EXPECT_GT(yielding.prediction().intent_m.at(7).z(), 100.0 + 14.0);
 
   // The lower id keeps its plan: the other one gives way.
   Agent keeping(options(0, 2), world::SafetyLimits{}, line_east(0.0), flat());
@@ -331,7 +352,7 @@ TEST(Agent, ACrossingNeighbourOfHigherPriorityIsLetThroughFirstWhenNoLevelIsFree
     EXPECT_GE(r.speed_m_s, 5.0) << t;
   }
   // Its intent says so: where it will be at t = 10 s is short of the crossing.
-  const PredictedTrajectory mine = a.prediction_message();
+  const PredictedTrajectory mine = a.prediction();
   ASSERT_GE(mine.intent_m.size(), 31u);
   EXPECT_LT(mine.intent_m[10].x(), 100.0 - 20.0);
 }
@@ -353,7 +374,7 @@ TEST(Agent, PassingTheLastTargetFinishesAndHolds) {
   EXPECT_EQ(a.targets_inspected(), 1);
   EXPECT_TRUE(a.missed_targets().empty());
   // A finished agent broadcasts that it holds where it is.
-  const PredictedTrajectory p = a.prediction_message();
+  const PredictedTrajectory p = a.prediction();
   ASSERT_FALSE(p.positions_m.empty());
   EXPECT_NEAR(p.positions_m.back().x(), 990.0, 1.0);
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 
 #include "core/error.hpp"
 
@@ -28,7 +29,7 @@ TEST(InProcessTransport, BroadcastReachesEveryoneButTheSenderAfterTheLatency) {
   ASSERT_EQ(got.size(), 1u);
   EXPECT_EQ(got[0].sender, 0);
   EXPECT_DOUBLE_EQ(got[0].delivered_s, 1.05);
-  EXPECT_EQ(std::get<ThreatReport>(got[0].message).threat_id, 7);
+  EXPECT_EQ(std::get<ThreatReport>(got[0].message()).threat_id, 7);
   got.clear();
   t.receive(0, 5.0, got);
   EXPECT_TRUE(got.empty());  // no echo to the sender
@@ -49,8 +50,8 @@ TEST(InProcessTransport, DropRateMatchesAndIsDeterministicForASeed) {
   const auto a = run(5), b = run(5);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i)
-    EXPECT_EQ(std::get<ThreatReport>(a[i].message).threat_id,
-              std::get<ThreatReport>(b[i].message).threat_id);
+    EXPECT_EQ(std::get<ThreatReport>(a[i].message()).threat_id,
+              std::get<ThreatReport>(b[i].message()).threat_id);
   // Binomial(20000, 0.8): std ≈ 57 messages; five standard deviations.
   EXPECT_NEAR(static_cast<double>(a.size()), 16000.0, 285.0);
   EXPECT_NE(a.size(), run(6).size());
@@ -65,8 +66,8 @@ TEST(InProcessTransport, JitterLargerThanThePeriodReordersButDeliversInTimeOrder
   int out_of_order = 0;
   for (std::size_t i = 1; i < got.size(); ++i) {
     EXPECT_GE(got[i].delivered_s, got[i - 1].delivered_s);
-    out_of_order += std::get<ThreatReport>(got[i].message).threat_id <
-                    std::get<ThreatReport>(got[i - 1].message).threat_id;
+    out_of_order += std::get<ThreatReport>(got[i].message()).threat_id <
+                    std::get<ThreatReport>(got[i - 1].message()).threat_id;
   }
   EXPECT_GT(out_of_order, 10);
   for (const Envelope& e : got) {
@@ -127,8 +128,37 @@ int predictions_from_0(InProcessTransport& t, int receiver, double now_s) {
   t.receive(receiver, now_s, got);
   int count = 0;
   for (const Envelope& e : got)
-    count += e.sender == 0 && std::holds_alternative<PredictedTrajectory>(e.message) ? 1 : 0;
+    count += e.sender == 0 && std::holds_alternative<PredictedTrajectory>(e.message()) ? 1 : 0;
   return count;
+}
+
+TEST(InProcessTransport, EveryReceiverSharesThePublishedCopy) {
+  // A broadcast is not copied once a receiver: every envelope holds the published message.
+  InProcessTransport t(4, LinkModel{0.01, 0.005, 0.0}, 3);
+  const auto published =
+      std::make_shared<const Message>(prediction_at(2, 0.5, Vec3(10.0, 20.0, 100.0)));
+  t.publish(2, 0.5, published);
+  for (int receiver : {0, 1, 3}) {
+    std::vector<Envelope> got;
+    t.receive(receiver, 1.0, got);
+    ASSERT_EQ(got.size(), 1u);
+    EXPECT_EQ(got[0].payload.get(), published.get());
+    EXPECT_EQ(std::get<PredictedTrajectory>(got[0].message()).uav, 2);
+  }
+  // A message the caller keeps is copied once, at publishing.
+  Message kept = threat_from(1, 9, 0.6);
+  t.publish(1, 0.6, kept);
+  std::get<ThreatReport>(kept).threat_id = 10;
+  std::vector<Envelope> got;
+  t.receive(0, 1.0, got);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(std::get<ThreatReport>(got[0].message()).threat_id, 9);
+}
+
+TEST(InProcessTransport, ANullMessageIsRejected) {
+  InProcessTransport t(2, LinkModel{}, 1);
+  EXPECT_THROW(t.publish(0, 0.0, std::shared_ptr<const Message>{}), InputError);
+  EXPECT_EQ(t.stats().published, 0u);
 }
 
 TEST(InProcessTransport, PredictionsReachNearAgentsEveryTickAndFarOnesOnlyEveryFarPeriod) {
@@ -146,7 +176,7 @@ TEST(InProcessTransport, PredictionsReachNearAgentsEveryTickAndFarOnesOnlyEveryF
   std::vector<Envelope> got;
   t.receive(2, 1.1, got);
   ASSERT_EQ(got.size(), 1u);
-  EXPECT_TRUE(std::holds_alternative<ThreatReport>(got[0].message));
+  EXPECT_TRUE(std::holds_alternative<ThreatReport>(got[0].message()));
   // Once 2 comes within reach it gets every tick.
   for (int tick = 12; tick <= 15; ++tick)
     for (int i = 0; i < 3; ++i)

@@ -77,7 +77,7 @@ TEST(DdsTransport, PredictedTrajectoryRoundTripsBitExactly) {
   for (int k = 0; k < 40; ++k) p.positions_m.push_back(Vec3(k * 1.1, -k / 3.0, 100.0 + k * 1e-9));
   const auto got = send_until_received(a, 0, b, 1, p);
   ASSERT_FALSE(got.empty());
-  const auto* q = std::get_if<swarm::PredictedTrajectory>(&got.back().message);
+  const auto* q = std::get_if<swarm::PredictedTrajectory>(&got.back().message());
   ASSERT_NE(q, nullptr);
   EXPECT_EQ(got.back().sender, 0);
   EXPECT_EQ(got.back().sent_s, 12.34);
@@ -99,7 +99,7 @@ TEST(DdsTransport, ThreatStateAndPlanRoundTrip) {
   swarm::ThreatReport r{2, 7, 3.5, Vec3(1, 2, 3), Vec3(-4, 5, 0.25), 42.0};
   auto got = send_until_received(a, 2, ground, 3, r);
   ASSERT_FALSE(got.empty());
-  const auto* rr = std::get_if<swarm::ThreatReport>(&got.back().message);
+  const auto* rr = std::get_if<swarm::ThreatReport>(&got.back().message());
   ASSERT_NE(rr, nullptr);
   EXPECT_EQ(rr->reporter, 2);
   EXPECT_EQ(rr->threat_id, 7);
@@ -114,7 +114,7 @@ TEST(DdsTransport, ThreatStateAndPlanRoundTrip) {
   s.state << 1, 2, 3, 0.5, 10, -0.1, 0.7;
   got = send_until_received(a, 2, ground, 3, s);
   ASSERT_FALSE(got.empty());
-  const auto* ss = std::get_if<swarm::StateReport>(&got.back().message);
+  const auto* ss = std::get_if<swarm::StateReport>(&got.back().message());
   ASSERT_NE(ss, nullptr);
   EXPECT_EQ(ss->uav, 2);
   EXPECT_EQ(ss->state, s.state);
@@ -130,7 +130,7 @@ TEST(DdsTransport, ThreatStateAndPlanRoundTrip) {
   plan.target_ids = {2, 0};
   got = send_until_received(ground, 3, a, 2, plan);
   ASSERT_FALSE(got.empty());
-  const auto* pp = std::get_if<swarm::ReferencePlan>(&got.back().message);
+  const auto* pp = std::get_if<swarm::ReferencePlan>(&got.back().message());
   ASSERT_NE(pp, nullptr);
   EXPECT_EQ(got.back().sender, 3);  // the ground station
   EXPECT_EQ(pp->uav, 1);
