@@ -693,7 +693,7 @@ void IncrementalMpc::forward_pass() {
     keep_phi = false;
   }
   if (state_reach_ != gamma_reach_) {
-    Gamma_.setZero();  // the first n_s rows, Γ_{−1}, stay zero
+    Gamma_.setZero();  // block 0, Γ_{−1}, stays zero
     gamma_reach_ = state_reach_;
     keep = false;
     keep_phi = false;
@@ -722,9 +722,13 @@ void IncrementalMpc::forward_pass() {
   // for all of them instead of a test a step.
   const bool later_increments_zero =
       count_nonzeros(d.disturbance_delta.data() + nd_, nd_ * (np_ - 1)) == 0;
-  const Eigen::Index ld = Gamma_.outerStride();
-  // Block b of Γ: rows b·n_s to (b + 1)·n_s.
-  const auto block = [&](int b) { return Gamma_.data() + static_cast<Eigen::Index>(b) * ns_ * ld; };
+  // Γ is stored by state, then block: state k of block b is row k·(Np + 3) + b, so a kept row's
+  // values for every step (read one after the other by the rows that change at every step) are
+  // one contiguous run, not one row in every block's n_s. A block's rows are `state_ld` apart.
+  const Eigen::Index state_ld = static_cast<Eigen::Index>(np_ + 3) * Gamma_.outerStride();
+  const Eigen::Index ld = state_ld;
+  // Block b of Γ: its state 0's row.
+  const auto block = [&](int b) { return Gamma_.data() + b * Gamma_.outerStride(); };
   for (int j = 0; j < np_; ++j) {
     const double* w = known_term(j, j > 0 && later_increments_zero);
     // Γ_{j−1}: its block (j), or the alternating block for the alternating rows (Γ_{−1} = 0,

@@ -365,7 +365,8 @@ class IncrementalMpc {
   // Φ and Γ order their columns by input, then move (see build_prediction).
   RowMatX Phi_;  // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
   // ((Np + 3)·n_s)×(Nc·n_u): Γ_{−1} = 0, Γ_0, …, Γ_{Np−1} (block j + 1 holds Γ_j), then two
-  // alternating blocks; valid inside each row's span. A row is kept for every step, so that a
+  // alternating blocks, stored by state (state k of block b is row k·(Np + 3) + b); valid inside
+  // each row's span. A row is kept for every step, so that a
   // row that does not change is not computed again the next step, unless it changes at every
   // step: then it alternates between the last two blocks (see forward_pass).
   RowMatX Gamma_;
