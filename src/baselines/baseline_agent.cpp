@@ -102,10 +102,7 @@ BaselineAgent::BaselineAgent(const BaselineAgentOptions& options, const world::S
   require(options.max_command_rate.allFinite() && options.max_command_rate.minCoeff() > 0.0,
           "max_command_rate", "must be positive and finite");
   last_command_ = vehicle::Input(options.vehicle.cruise_speed_m_s, 0.0, 0.0);
-  swarm::PredictedTrajectory empty;  // before the first control(): no positions yet
-  empty.uav = options.id;
-  empty.step_s = options.prediction_step_s;
-  prediction_ = std::make_shared<const swarm::Message>(std::move(empty));
+  publish_prediction(0.0, {});  // before the first control(): no positions yet
 }
 
 void BaselineAgent::receive(const swarm::Envelope& envelope) {

@@ -724,9 +724,8 @@ void IncrementalMpc::forward_pass() {
       count_nonzeros(d.disturbance_delta.data() + nd_, nd_ * (np_ - 1)) == 0;
   // Γ is stored by state, then block: state k of block b is row k·(Np + 3) + b, so a kept row's
   // values for every step (read one after the other by the rows that change at every step) are
-  // one contiguous run, not one row in every block's n_s. A block's rows are `state_ld` apart.
-  const Eigen::Index state_ld = static_cast<Eigen::Index>(np_ + 3) * Gamma_.outerStride();
-  const Eigen::Index ld = state_ld;
+  // one contiguous run, not one row in every block's n_s. A block's rows are `ld` apart.
+  const Eigen::Index ld = static_cast<Eigen::Index>(np_ + 3) * Gamma_.outerStride();
   // Block b of Γ: its state 0's row.
   const auto block = [&](int b) { return Gamma_.data() + b * Gamma_.outerStride(); };
   for (int j = 0; j < np_; ++j) {

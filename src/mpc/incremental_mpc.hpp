@@ -366,9 +366,9 @@ class IncrementalMpc {
   RowMatX Phi_;  // (Np·n_y)×(Nc·n_u); moves not yet started stay zero
   // ((Np + 3)·n_s)×(Nc·n_u): Γ_{−1} = 0, Γ_0, …, Γ_{Np−1} (block j + 1 holds Γ_j), then two
   // alternating blocks, stored by state (state k of block b is row k·(Np + 3) + b); valid inside
-  // each row's span. A row is kept for every step, so that a
-  // row that does not change is not computed again the next step, unless it changes at every
-  // step: then it alternates between the last two blocks (see forward_pass).
+  // each row's span. A row is kept for every step, so that a row that does not change is not
+  // computed again the next step, unless it changes at every step: then it alternates between
+  // the last two blocks (see forward_pass).
   RowMatX Gamma_;
   std::uint64_t history_valid_ = 0;  // rows whose blocks hold the last pass's values
   VecX Yfree_;                       // Np·n_y

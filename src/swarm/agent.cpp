@@ -52,9 +52,6 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
       guard_(options.separation_guard, options.tracker.vehicle, command_rate_) {
   require(options.num_uavs >= 1, "num_uavs", "must be at least 1");
   require(options.id >= 0 && options.id < options.num_uavs, "id", "must be in [0, num_uavs)");
-  // Before the first control(): no positions yet.
-  prediction_ = std::make_shared<const Message>(
-      PredictedTrajectory{options.id, 0.0, options.tracker.prediction_step_s, {}});
   require(options.broadcast_period_s > 0.0, "broadcast_period_s", "must be positive");
   require(options.end_radius_m > 0.0, "end_radius_m", "must be positive");
   require(options.threat_report_period_s > 0.0, "threat_report_period_s", "must be positive");
@@ -120,6 +117,9 @@ Agent::Agent(const AgentOptions& options, const world::SafetyLimits& limits,
     from = best_time;
   }
   reapproaches_.assign(options_.targets.size(), 0);
+  // Before the first control(): no positions yet.
+  prediction_ = std::make_shared<const Message>(
+      PredictedTrajectory{options.id, 0.0, options.tracker.prediction_step_s, {}});
 }
 
 void Agent::receive(const Envelope& envelope) {
