@@ -48,6 +48,65 @@ inline __attribute__((always_inline)) void axpy4(double* __restrict dst, int n, 
   for (; i < n; ++i) dst[i] += a * src[i];
 }
 
+// f[0..n) += Σ_r weights[r]·rows[r][0..n) over `count` rows, summed row after row as a loop of
+// axpys would (the same sums), but with a panel of up to six vectors of f kept in registers
+// over all the rows: each entry is loaded and stored once, and the panel's sums are
+// independent chains instead of one load, multiply-add and store a row. The columns past the
+// last multiple of four are summed as scalars, up to three side by side.
+template <int V>
+inline __attribute__((always_inline)) void add_weighted_rows_panel(double* f,
+                                                                   const double* const* rows,
+                                                                   const double* weights, int count,
+                                                                   int q) {
+  Vec4 acc[V];
+  std::memcpy(acc, f + q, sizeof acc);
+  for (int r = 0; r < count; ++r) {
+    const double* p = rows[r] + q;
+    const double w = weights[r];
+    for (int v = 0; v < V; ++v) {
+      Vec4 x;
+      std::memcpy(&x, p + 4 * v, sizeof x);
+      acc[v] += w * x;
+    }
+  }
+  std::memcpy(f + q, acc, sizeof acc);
+}
+
+// The panel of the last v < 6 vectors (none when v is 0), its width a constant of each.
+template <int V>
+inline __attribute__((always_inline)) void add_weighted_rows_last_panel(int v, double* f,
+                                                                        const double* const* rows,
+                                                                        const double* weights,
+                                                                        int count, int q) {
+  if (v == V) {
+    add_weighted_rows_panel<V>(f, rows, weights, count, q);
+  } else if constexpr (V > 1) {
+    add_weighted_rows_last_panel<V - 1>(v, f, rows, weights, count, q);
+  }
+}
+
+inline __attribute__((always_inline)) void add_weighted_rows(double* f, int n,
+                                                             const double* const* rows,
+                                                             const double* weights, int count) {
+  int q = 0;
+  for (; q + 24 <= n; q += 24) add_weighted_rows_panel<6>(f, rows, weights, count, q);
+  add_weighted_rows_last_panel<5>((n - q) / 4, f, rows, weights, count, q);
+  q = n / 4 * 4;
+  const int tail = n - q;
+  if (tail == 0) return;
+  double t0 = f[q], t1 = tail > 1 ? f[q + 1] : 0.0, t2 = tail > 2 ? f[q + 2] : 0.0;
+  for (int r = 0; r < count; ++r) {
+    const double* p = rows[r] + q;
+    const double w = weights[r];
+    t0 += w * p[0];
+    if (tail > 1) t1 += w * p[1];
+    if (tail > 2) t2 += w * p[2];
+  }
+  f[q] = t0;
+  if (tail > 1) f[q + 1] = t1;
+  if (tail > 2) f[q + 2] = t2;
+}
+
 // dst[0..n) = a·src[0..n), four at a time (rows of 10 or 20, as axpy4).
 inline __attribute__((always_inline)) void scale4(double* __restrict dst, int n, double a,
                                                   const double* __restrict src) {
@@ -140,6 +199,35 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
   int count = static_cast<int>(counts[0] + counts[1] + counts[2] + counts[3]);
   for (; i < n; ++i) count += x[i] != 0.0 ? 1 : 0;
   return count;
+}
+
+// Bit i set where x[i] and y[i] differ as bits (i < n ≤ 64), sixteen entries a step as four
+// vector comparisons whose lanes are weighted and or-ed together, then one horizontal or.
+// Inlined into the clones of collect_plant_nonzeros.
+inline __attribute__((always_inline)) std::uint64_t differing_bits(const double* x, const double* y,
+                                                                   int n) {
+  std::uint64_t bits = 0;
+  int i = 0;
+  for (; i + 16 <= n; i += 16) {
+    Mask4 a0, a1, a2, a3, b0, b1, b2, b3;  // one load each (an array goes through the stack)
+    std::memcpy(&a0, x + i, sizeof a0);
+    std::memcpy(&a1, x + i + 4, sizeof a1);
+    std::memcpy(&a2, x + i + 8, sizeof a2);
+    std::memcpy(&a3, x + i + 12, sizeof a3);
+    std::memcpy(&b0, y + i, sizeof b0);
+    std::memcpy(&b1, y + i + 4, sizeof b1);
+    std::memcpy(&b2, y + i + 8, sizeof b2);
+    std::memcpy(&b3, y + i + 12, sizeof b3);
+    const Mask4 w = {1, 2, 4, 8};
+    const Mask4 t = ((a0 != b0) & w) | ((a1 != b1) & (w << 4)) | ((a2 != b2) & (w << 8)) |
+                    ((a3 != b3) & (w << 12));
+    bits |= static_cast<std::uint64_t>(t[0] | t[1] | t[2] | t[3]) << i;
+  }
+  for (; i < n; ++i) {
+    const bool differ = std::bit_cast<std::uint64_t>(x[i]) != std::bit_cast<std::uint64_t>(y[i]);
+    bits |= static_cast<std::uint64_t>(differ) << i;
+  }
+  return bits;
 }
 
 // out[0..rows) = w[0..rows) + Σ_{l < cols} M(:, l)·x[l] for a column-major matrix M of 4 to 8
@@ -303,8 +391,9 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   data_.soft_bound = VecX::Zero(cap);
 
   a_entries_.resize(static_cast<std::size_t>(np_) * ns_ * ns_);
-  a_offsets_.resize(a_entries_.size());
   a_row_bits_.resize(a_entries_.size());
+  a_copy_.assign(a_entries_.size(), 0.0);  // all zero, as the empty listing below
+  a_entry_of_.assign(a_entries_.size(), -1);
   a_row_begin_.assign(static_cast<std::size_t>(np_) * ns_ + 1, 0);
   c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
   c_row_begin_.assign(ny_ + 1, 0);
@@ -353,6 +442,7 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   soft_block_ = RowMatX::Zero(cap, nc_ * nu_);
   scaled_rows_ = VecX::Zero(static_cast<Eigen::Index>(np_) * ny_ * nc_ * nu_);
   row_starts_.assign(static_cast<std::size_t>(np_) * ny_, nullptr);
+  gradient_weights_ = VecX::Zero(np_ * ny_);
   phi_min_ = VecX::Zero(np_ * ny_);
   phi_max_ = VecX::Zero(np_ * ny_);
   kept_rows_.assign(cap, 0);
@@ -454,6 +544,7 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // the nonzeros once lets the rows of Γ (and, for plants outside 4 to 8 states, the free
   // response and the solution's simulation) skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
+  const int size = ns_ * ns_;
   int n = 0;
   bool same = true;  // every A_j so far has the nonzero positions listed by the last call
   // Listed by row (then column): the forward pass sums each row of Γ_j in one loop, and a
@@ -461,26 +552,35 @@ void IncrementalMpc::collect_plant_nonzeros() {
   for (int j = 0; j < np_; ++j) {
     const int old_begin = a_row_begin_[j * ns_], old_end = a_row_begin_[(j + 1) * ns_];
     const double* A = d.A[j].data();  // column-major n_s×n_s
-    // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
-    // time, and nonzero at every listed position, is the same set; only the values are read,
-    // noting the rows whose values changed (bit k: row k).
-    if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
-      // Compared as bits: equal bits give equal sums (a NaN kept gives the same NaN rows).
-      // A listed entry that became ±0 has no bit set outside its sign.
-      // Each entry's place in A_j and its row's bit were noted when it was listed.
-      std::uint64_t changed = 0, zero = 0;
-      Entry* __restrict entries = a_entries_.data();
-      const int* __restrict offsets = a_offsets_.data();
-      const std::uint64_t* __restrict row_bits = a_row_bits_.data();
-      for (int e = old_begin; e < old_end; ++e) {
-        const double v = A[offsets[e]];
-        const std::uint64_t bits = std::bit_cast<std::uint64_t>(v);
-        const std::uint64_t old = std::bit_cast<std::uint64_t>(entries[e].value);
-        changed |= bits != old ? row_bits[e] : 0;
-        zero |= std::uint64_t{(bits << 1) == 0};
-        entries[e].value = v;
+    // The common case (a plant whose Jacobian keeps its structure): A_j differs from the copy
+    // last read in a few entries (the UAV's four that depend on the nominal heading and speed),
+    // compared as bits a vector at a time, and every differing entry keeps its zero-ness: the
+    // listing stands, only the changed values are read, noting their rows (bit k: row k).
+    // Equal bits give equal sums (a NaN kept gives the same NaN rows); a listed entry that
+    // became ±0, or a zero that became nonzero (or NaN), lists A_j anew.
+    if (same && n == old_begin) {
+      double* __restrict copy = &a_copy_[static_cast<std::size_t>(j) * size];
+      const int* __restrict entry_of = &a_entry_of_[static_cast<std::size_t>(j) * size];
+      std::uint64_t changed = 0;
+      bool kept = true;
+      for (int w = 0; w < size && kept; w += 64) {
+        const std::uint64_t differing = differing_bits(A + w, copy + w, std::min(64, size - w));
+        for (std::uint64_t m = differing; m != 0; m &= m - 1) {
+          const int e = w + std::countr_zero(m);
+          const double v = A[e];
+          const int listed = entry_of[e];
+          if ((listed >= 0) != (v != 0.0)) {
+            kept = false;
+            break;
+          }
+          copy[e] = v;
+          if (listed >= 0) {
+            a_entries_[listed].value = v;
+            changed |= a_row_bits_[listed];
+          }
+        }
       }
-      if (zero == 0) {
+      if (kept) {
         a_changed_rows_[j] = changed;
         n = old_end;
         continue;
@@ -488,6 +588,9 @@ void IncrementalMpc::collect_plant_nonzeros() {
     }
     same = false;  // this step and every later one are listed anew
     a_changed_rows_[j] = ~std::uint64_t{0};
+    std::copy_n(A, size, &a_copy_[static_cast<std::size_t>(j) * size]);
+    int* entry_of = &a_entry_of_[static_cast<std::size_t>(j) * size];
+    std::fill_n(entry_of, size, -1);
     std::uint64_t* dependents = &a_dependents_[static_cast<std::size_t>(j) * ns_];
     std::fill_n(dependents, ns_, 0);
     for (int k = 0; k < ns_; ++k) {
@@ -495,8 +598,8 @@ void IncrementalMpc::collect_plant_nonzeros() {
       for (int l = 0; l < ns_; ++l) {
         const double v = A[l * ns_ + k];
         if (v == 0.0) continue;
-        a_offsets_[n] = l * ns_ + k;
         a_row_bits_[n] = std::uint64_t{1} << (k & 63);
+        entry_of[l * ns_ + k] = n;
         a_entries_[n++] = Entry{k, l, v};
         dependents[l] |= std::uint64_t{1} << (k & 63);
       }
@@ -852,10 +955,16 @@ void IncrementalMpc::build_cost() {
     const int* rows = group_rows_.data();
     double* f = fp_.data() + lo;
     const double* reference = d.reference.data();  // column-major n_y×Np: entry r is row r's
-    for (int n = begin; n < end; ++n) {
-      const int r = rows[n];
-      axpy4(f, size, -2.0 * qdiag_[r] * (reference[r] - Yfree_[r]), phi + r * ld + lo);
+    // Each row's start in Φ (at the span) and its weight in f_u.
+    const int count = end - begin;
+    const double** starts = row_starts_.data();
+    double* weights = gradient_weights_.data();
+    for (int n = 0; n < count; ++n) {
+      const int r = rows[begin + n];
+      starts[n] = phi + r * ld + lo;
+      weights[n] = -2.0 * qdiag_[r] * (reference[r] - Yfree_[r]);
     }
+    add_weighted_rows(f, size, starts, weights, count);
     if (by_block && group_stale_[g] == 0) continue;
     group_stale_[g] = 0;
     if (by_block) {
@@ -865,15 +974,9 @@ void IncrementalMpc::build_cost() {
     // Each row's start, and its entries times q_r packed one row after the other: the tiles
     // below read a row's four products q_r·φ_r(a0 + i) as broadcasts from memory instead of
     // four loads and four multiplications a tile (the same products, so the same sums).
-    const int count = end - begin;
-    const double** starts = row_starts_.data();
     double* scaled = scaled_rows_.data();
-    for (int n = 0; n < count; ++n) {
-      const int r = rows[begin + n];
-      const double* p = phi + r * ld + lo;
-      starts[n] = p;
-      scale4(scaled + n * size, size, qdiag_[r], p);
-    }
+    for (int n = 0; n < count; ++n)
+      scale4(scaled + n * size, size, qdiag_[rows[begin + n]], starts[n]);
     for (int a0 = 0; a0 < full; a0 += 4) {
       int b0 = 0;
       for (; b0 + 8 <= a0 + 4; b0 += 8) {
@@ -939,15 +1042,44 @@ void IncrementalMpc::build_cost() {
 }
 
 void IncrementalMpc::write_hessian_block(int lo, int hi) {
-  // Column b of H (column-major) is row b of the symmetric Hp_ (row-major): its part above the
-  // diagonal is row b's entries a < b, its part from the diagonal down column b of the
-  // triangle read down.
-  auto Huu = qp_.H.topLeftCorner(nc_ * nu_, nc_ * nu_);
+  // H = 2·Hp_ made symmetric, plus 2R̄ on the diagonal, over the block [lo, hi)². H is
+  // column-major, Hp_ row-major with its lower triangle (a ≥ b) valid. Column b of H below the
+  // diagonal is column b of that triangle, strided in Hp_: read as 4 × 4 tiles of its rows and
+  // transposed in registers, each tile's columns stored whole. Above the diagonal, column b of
+  // H is row b of the triangle, contiguous. Doubling is exact, so the values are the entries'.
+  double* H = qp_.H.data();
+  const Eigen::Index ldh = qp_.H.outerStride(), ld = Hp_.outerStride();
+  const double* P = Hp_.data();
+  const int size = hi - lo, full = size / 4 * 4;
+  const Vec4 two = {2.0, 2.0, 2.0, 2.0};
+  for (int a0 = 0; a0 < full; a0 += 4) {
+    const double* rows = P + (lo + a0) * ld + lo;
+    for (int b0 = 0; b0 <= a0; b0 += 4) {
+      // A tile on the diagonal also carries entries above it, which the loop below rewrites.
+      Vec4 r0, r1, r2, r3;
+      std::memcpy(&r0, rows + b0, sizeof r0);
+      std::memcpy(&r1, rows + ld + b0, sizeof r1);
+      std::memcpy(&r2, rows + 2 * ld + b0, sizeof r2);
+      std::memcpy(&r3, rows + 3 * ld + b0, sizeof r3);
+      transpose4(r0, r1, r2, r3);  // now columns b0 … b0 + 3, rows a0 … a0 + 3
+      r0 *= two;
+      r1 *= two;
+      r2 *= two;
+      r3 *= two;
+      double* out = H + (lo + b0) * ldh + lo + a0;
+      std::memcpy(out, &r0, sizeof r0);
+      std::memcpy(out + ldh, &r1, sizeof r1);
+      std::memcpy(out + 2 * ldh, &r2, sizeof r2);
+      std::memcpy(out + 3 * ldh, &r3, sizeof r3);
+    }
+  }
+  for (int a = lo + full; a < hi; ++a) {  // the rows below the last whole tile
+    for (int b = lo; b <= a; ++b) H[b * ldh + a] = 2.0 * P[a * ld + b];
+  }
   for (int b = lo; b < hi; ++b) {
-    double* out = &Huu(0, b);
-    const double* hb = Hp_.row(b).data();
+    double* out = H + b * ldh;
+    const double* hb = P + b * ld;
     for (int a = lo; a < b; ++a) out[a] = 2.0 * hb[a];
-    for (int a = b; a < hi; ++a) out[a] = 2.0 * Hp_(a, b);
     out[b] += 2.0 * options_.move_weight[b / nc_];
   }
 }
@@ -996,6 +1128,10 @@ void IncrementalMpc::assemble_qp() {
       qp_.ug[input_rows_begin_ + q] = d.input_max(c, i) - d.previous_input[c];
     }
   }
+  if (box_changed_ != 0) {
+    const int n = nc_ * nu_;
+    box_finite_ = qp_.lb.head(n).allFinite() && qp_.ub.head(n).allFinite();
+  }
   if (options_.hard_output_limits) {
     for (int q = 0; q < nc_ * nu_; ++q) {
       qp_.G.col(q).segment(output_rows_begin_, np_ * ny_) = Phi_.col(q);
@@ -1035,6 +1171,9 @@ void IncrementalMpc::assemble_soft_rows() {
     const double* bh = qp_.ub.data() + lo;
     // Four partial sums a side (a bound, so the order of the sums does not matter); a zero
     // entry adds zero even against an infinite bound, and a NaN propagates (its row is kept).
+    // In a finite box (l ≤ h) the smaller of v·l and v·h is the lower end whatever v's sign,
+    // and a zero v gives a zero either way, so two comparisons and blends a side become one
+    // min or max (a NaN propagates: each picks its second operand when unordered).
     Vec4 mn = {}, mx = {};
     const Vec4 zero = {};
     int q = 0;
@@ -1044,8 +1183,13 @@ void IncrementalMpc::assemble_soft_rows() {
       std::memcpy(&l, bl + q, sizeof l);
       std::memcpy(&h, bh + q, sizeof h);
       const Vec4 vl = v * l, vh = v * h;
-      mn += v == zero ? zero : (v > zero ? vl : vh);
-      mx += v == zero ? zero : (v > zero ? vh : vl);
+      if (box_finite_) {  // the same each pass: the compiler makes two loops of it
+        mn += vl < vh ? vl : vh;
+        mx += vl > vh ? vl : vh;
+      } else {
+        mn += v == zero ? zero : (v > zero ? vl : vh);
+        mx += v == zero ? zero : (v > zero ? vh : vl);
+      }
     }
     double row_min = mn[0] + mn[1] + mn[2] + mn[3];
     double row_max = mx[0] + mx[1] + mx[2] + mx[3];

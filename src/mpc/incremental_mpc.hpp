@@ -286,7 +286,7 @@ class IncrementalMpc {
   const double* known_term(int j, bool zero_increment);
   RIDGELINE_SIMD_CLONES void forward_pass();
   RIDGELINE_SIMD_CLONES void build_cost();
-  void write_hessian_block(int lo, int hi);
+  RIDGELINE_SIMD_CLONES void write_hessian_block(int lo, int hi);
   RIDGELINE_SIMD_CLONES void assemble_soft_rows();
   // Cloned as the others (its whole-column products in AVX2) but without fused multiply-adds:
   // each product rounds before it is added, as in the baseline code it replaced, so the
@@ -319,10 +319,13 @@ class IncrementalMpc {
   // a_row_begin_[j·n_s + k + 1]), and row k of C is c_entries_[c_row_begin_[k], …[k + 1]).
   std::vector<Entry> a_entries_;  // capacity Np·n_s²
   std::vector<int> a_row_begin_;  // Np·n_s + 1 offsets into a_entries_
-  // Of a_entries_[e]: its index in A_j's column-major storage (col·n_s + row), and its row's
-  // bit in a row mask (bit row & 63), for the values' update at each step.
-  std::vector<int> a_offsets_;
+  // Of a_entries_[e]: its row's bit in a row mask (bit row & 63), for the values' update at
+  // each step.
   std::vector<std::uint64_t> a_row_bits_;
+  // Each A_j as last read (Np·n_s², column-major each), and the index in a_entries_ of each of
+  // its entries (−1: zero, not listed), to read only the entries that changed.
+  std::vector<double> a_copy_;
+  std::vector<int> a_entry_of_;
   std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
   std::vector<int> c_row_begin_;  // n_y + 1 offsets into c_entries_
   // The nonzeros of B_j for the moves (j < Nc), listed the same way (row k of B_j:
@@ -358,6 +361,7 @@ class IncrementalMpc {
   std::vector<int> range_stale_, group_stale_, output_group_;
   bool groups_disjoint_ = true;
   std::uint64_t box_changed_ = ~std::uint64_t{0};  // inputs whose move box changed (assemble_qp)
+  bool box_finite_ = false;  // every side of the move box is finite (assemble_qp)
   bool h_valid_ = false;  // H was written in full once with the present groups
   bool c_changed_ = true;
   bool rows_valid_ = false;
@@ -398,6 +402,7 @@ class IncrementalMpc {
   // times q_r, one row after the other (Np·n_y rows of the span's size at most).
   std::vector<const double*> row_starts_;
   VecX scaled_rows_;
+  VecX gradient_weights_;  // Np·n_y: each row's weight in f_u, −2q_r(r_r − y_free,r)
   VecX fp_;             // Nc·n_u: f_u in Φ's column order
   RowMatX soft_block_;  // capacity × Nc·n_u: the kept soft rows' aᵀΦ_j in Φ's column order
   // The range of each row of Φ over the move box, min and max of φ_rᵀΔU (assemble_soft_rows).

@@ -822,6 +822,49 @@ TEST(IncrementalMpcSoftRows, RedundantRowsLeftOutChangeNothing) {
   EXPECT_GE(exact_steps, 15);
 }
 
+// A move box with infinite sides (the climb's here) still leaves out a row no move can reach:
+// the climb command acts on the altitude through the climb rate, so no move changes step 0's
+// altitude, and a row 5 m below its free response there cannot bind (its range over the box is
+// [0, 0]: the zero entries add zero, not 0·∞). At step 5 the unbounded moves reach the altitude
+// without limit: that row is carried. A finite box reads both the same way.
+TEST(IncrementalMpcSoftRows, AnUnboundedMoveBoxLeavesOutRowsNoMoveReaches) {
+  const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 10, nc = 4;
+  for (const bool unbounded : {true, false}) {
+    SCOPED_TRACE(unbounded);
+    IncrementalMpcOptions o = uav_options(np, nc);
+    if (unbounded) {
+      o.move_min[2] = -qp::kInfinity;
+      o.move_max[2] = qp::kInfinity;
+    }
+    o.qp_settings = {.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};
+    IncrementalMpc mpc(IncrementalMpcDims{ns, nu, ny, 3, 4, 1}, o);
+    IncrementalMpcData& d = mpc.data();
+    const double psi0 = 0.4;
+    set_uav_plant(d, psi0, 0.02, 0.0);
+    d.delta_state = VecX::Zero(ns);
+    d.delta_state[0] = 1.2 * std::cos(psi0);
+    d.delta_state[1] = 1.2 * std::sin(psi0);
+    d.state = VecX::Zero(ns);
+    d.state[vehicle::kZ] = 100.0;
+    d.state[vehicle::kPsi] = psi0;
+    d.state[vehicle::kV] = 12.0;
+    d.output = d.state.head<3>();
+    for (int j = 0; j < np; ++j) d.reference.col(j) = d.output + (j + 1) * d.delta_state.head<3>();
+    d.disturbance_delta.setZero();
+    d.state_offset.setZero();
+    mpc.build_prediction();
+    const VecX free = mpc.free_response();
+    d.clear_soft_rows();
+    ASSERT_TRUE(d.add_soft_row(0, Vec3::UnitZ(), free[2] - 5.0, 0, 0));
+    ASSERT_TRUE(d.add_soft_row(5, Vec3::UnitZ(), free[5 * ny + 2] - 5.0, 0, 0));
+    const IncrementalMpcResult& r = mpc.solve();
+    ASSERT_TRUE(r.solved()) << qp::to_string(r.qp_status);
+    // Bounded, the climb's moves (0.1 m/s each) lift step 5 by far less than 5 m: left out too.
+    EXPECT_EQ(r.soft_rows_in_qp, unbounded ? 1 : 0);
+    EXPECT_EQ(r.max_slack, 0.0);
+  }
+}
+
 TEST(IncrementalMpcOptionsCheck, RejectsInconsistentOptionsNamingTheField) {
   IncrementalMpcOptions o = basic_options(2, 1, 10, 12);
   try {
