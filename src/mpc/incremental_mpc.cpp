@@ -33,8 +33,8 @@ inline __attribute__((always_inline)) void axpy(double* __restrict dst, int n, d
   for (int i = 0; i < n; ++i) dst[i] += a * src[i];
 }
 
-// The same four at a time in vector code, for build_cost's gradient: its rows are 10 or 20
-// long, where the vectorizer's set-up costs as much as the loop.
+// The same four at a time in vector code, for the soft rows' sums of two rows of Φ (Nc·n_u
+// long, 30 for the UAV), where the vectorizer's set-up costs as much as the loop.
 inline __attribute__((always_inline)) void axpy4(double* __restrict dst, int n, double a,
                                                  const double* __restrict src) {
   int i = 0;
@@ -52,7 +52,7 @@ inline __attribute__((always_inline)) void axpy4(double* __restrict dst, int n, 
 // axpys would (the same sums), but with a panel of up to six vectors of f kept in registers
 // over all the rows: each entry is loaded and stored once, and the panel's sums are
 // independent chains instead of one load, multiply-add and store a row. The columns past the
-// last multiple of four are summed as scalars, up to three side by side.
+// last multiple of four are summed in the lanes of one more vector.
 template <int V>
 inline __attribute__((always_inline)) void add_weighted_rows_panel(double* f,
                                                                    const double* const* rows,
@@ -94,20 +94,22 @@ inline __attribute__((always_inline)) void add_weighted_rows(double* f, int n,
   q = n / 4 * 4;
   const int tail = n - q;
   if (tail == 0) return;
-  double t0 = f[q], t1 = tail > 1 ? f[q + 1] : 0.0, t2 = tail > 2 ? f[q + 2] : 0.0;
+  // The tail's columns as lanes of one vector (the unused lanes sum zeros): as scalars, a
+  // single tail column's sum over the rows was vectorized by GCC into products rounded before
+  // an in-order sum, not the multiply-adds of the axpys it replaces.
+  Vec4 t = {f[q], tail > 1 ? f[q + 1] : 0.0, tail > 2 ? f[q + 2] : 0.0, 0.0};
   for (int r = 0; r < count; ++r) {
     const double* p = rows[r] + q;
-    const double w = weights[r];
-    t0 += w * p[0];
-    if (tail > 1) t1 += w * p[1];
-    if (tail > 2) t2 += w * p[2];
+    const Vec4 x = {p[0], tail > 1 ? p[1] : 0.0, tail > 2 ? p[2] : 0.0, 0.0};
+    t += weights[r] * x;
   }
-  f[q] = t0;
-  if (tail > 1) f[q + 1] = t1;
-  if (tail > 2) f[q + 2] = t2;
+  f[q] = t[0];
+  if (tail > 1) f[q + 1] = t[1];
+  if (tail > 2) f[q + 2] = t[2];
 }
 
-// dst[0..n) = a·src[0..n), four at a time (rows of 10 or 20, as axpy4).
+// dst[0..n) = a·src[0..n), four at a time (short rows, as axpy4: build_cost's rows of a span,
+// the soft rows' single terms).
 inline __attribute__((always_inline)) void scale4(double* __restrict dst, int n, double a,
                                                   const double* __restrict src) {
   int i = 0;
@@ -185,8 +187,8 @@ inline __attribute__((always_inline)) void combine_row(double* __restrict dst, i
 }
 
 // The number of nonzero entries of x[0..n), four lanes at a time (a NaN counts). Inlined into
-// the clones of collect_plant_nonzeros and forward_pass: a call through the clones' dispatcher
-// for 49 entries cost about as much as the count.
+// the clones of forward_pass: a call through the clones' dispatcher for a few dozen entries
+// costs about as much as the count.
 inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n) {
   Mask4 counts = {};  // lane-wise: a comparison gives −1 where true
   const Vec4 zero = {};
@@ -971,9 +973,10 @@ void IncrementalMpc::build_cost() {
       // The whole block: the diagonal tiles also sum entries above the diagonal (unread).
       for (int a = lo; a < lo + size; ++a) std::fill_n(Hp_.row(a).data() + lo, size, 0.0);
     }
-    // Each row's start, and its entries times q_r packed one row after the other: the tiles
-    // below read a row's four products q_r·φ_r(a0 + i) as broadcasts from memory instead of
-    // four loads and four multiplications a tile (the same products, so the same sums).
+    // Each row's entries times q_r packed one row after the other (from the starts found
+    // above): the tiles below read a row's four products q_r·φ_r(a0 + i) as broadcasts from
+    // memory instead of four loads and four multiplications a tile (the same products, so the
+    // same sums).
     double* scaled = scaled_rows_.data();
     for (int n = 0; n < count; ++n)
       scale4(scaled + n * size, size, qdiag_[rows[begin + n]], starts[n]);
@@ -1130,7 +1133,8 @@ void IncrementalMpc::assemble_qp() {
   }
   if (box_changed_ != 0) {
     const int n = nc_ * nu_;
-    box_finite_ = qp_.lb.head(n).allFinite() && qp_.ub.head(n).allFinite();
+    box_regular_ = qp_.lb.head(n).allFinite() && qp_.ub.head(n).allFinite() &&
+                   (qp_.lb.head(n).array() <= qp_.ub.head(n).array()).all();
   }
   if (options_.hard_output_limits) {
     for (int q = 0; q < nc_ * nu_; ++q) {
@@ -1171,9 +1175,12 @@ void IncrementalMpc::assemble_soft_rows() {
     const double* bh = qp_.ub.data() + lo;
     // Four partial sums a side (a bound, so the order of the sums does not matter); a zero
     // entry adds zero even against an infinite bound, and a NaN propagates (its row is kept).
-    // In a finite box (l ≤ h) the smaller of v·l and v·h is the lower end whatever v's sign,
-    // and a zero v gives a zero either way, so two comparisons and blends a side become one
-    // min or max (a NaN propagates: each picks its second operand when unordered).
+    // In a finite box with l ≤ h (box_regular_) the smaller of v·l and v·h is the lower end
+    // whatever v's sign, and a zero v gives a zero either way, so two comparisons and blends a
+    // side become one min or max. A NaN v propagates (both products are NaN, and each picks
+    // its second operand when unordered); an infinite v against a zero side gives one NaN
+    // product, and the other one is taken (±∞ instead of NaN: the row is kept either way, its
+    // scale not finite, and the QP is rejected for Φ's infinite entries).
     Vec4 mn = {}, mx = {};
     const Vec4 zero = {};
     int q = 0;
@@ -1183,7 +1190,7 @@ void IncrementalMpc::assemble_soft_rows() {
       std::memcpy(&l, bl + q, sizeof l);
       std::memcpy(&h, bh + q, sizeof h);
       const Vec4 vl = v * l, vh = v * h;
-      if (box_finite_) {  // the same each pass: the compiler makes two loops of it
+      if (box_regular_) {  // the same each pass: the compiler makes two loops of it
         mn += vl < vh ? vl : vh;
         mx += vl > vh ? vl : vh;
       } else {

@@ -361,7 +361,9 @@ class IncrementalMpc {
   std::vector<int> range_stale_, group_stale_, output_group_;
   bool groups_disjoint_ = true;
   std::uint64_t box_changed_ = ~std::uint64_t{0};  // inputs whose move box changed (assemble_qp)
-  bool box_finite_ = false;  // every side of the move box is finite (assemble_qp)
+  // Every side of the move box is finite and no lower side is above its upper one (an inverted
+  // box is not rejected before the QP; assemble_qp, when the box changed).
+  bool box_regular_ = false;
   bool h_valid_ = false;  // H was written in full once with the present groups
   bool c_changed_ = true;
   bool rows_valid_ = false;
