@@ -187,8 +187,8 @@ inline __attribute__((always_inline)) void combine_row(double* __restrict dst, i
 }
 
 // The number of nonzero entries of x[0..n), four lanes at a time (a NaN counts). Inlined into
-// the clones of forward_pass: a call through the clones' dispatcher for a few dozen entries
-// costs about as much as the count.
+// the clones of collect_plant_nonzeros and forward_pass: a call through the clones' dispatcher
+// for 49 entries cost about as much as the count.
 inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n) {
   Mask4 counts = {};  // lane-wise: a comparison gives −1 where true
   const Vec4 zero = {};
@@ -201,35 +201,6 @@ inline __attribute__((always_inline)) int count_nonzeros(const double* x, int n)
   int count = static_cast<int>(counts[0] + counts[1] + counts[2] + counts[3]);
   for (; i < n; ++i) count += x[i] != 0.0 ? 1 : 0;
   return count;
-}
-
-// Bit i set where x[i] and y[i] differ as bits (i < n ≤ 64), sixteen entries a step as four
-// vector comparisons whose lanes are weighted and or-ed together, then one horizontal or.
-// Inlined into the clones of collect_plant_nonzeros.
-inline __attribute__((always_inline)) std::uint64_t differing_bits(const double* x, const double* y,
-                                                                   int n) {
-  std::uint64_t bits = 0;
-  int i = 0;
-  for (; i + 16 <= n; i += 16) {
-    Mask4 a0, a1, a2, a3, b0, b1, b2, b3;  // one load each (an array goes through the stack)
-    std::memcpy(&a0, x + i, sizeof a0);
-    std::memcpy(&a1, x + i + 4, sizeof a1);
-    std::memcpy(&a2, x + i + 8, sizeof a2);
-    std::memcpy(&a3, x + i + 12, sizeof a3);
-    std::memcpy(&b0, y + i, sizeof b0);
-    std::memcpy(&b1, y + i + 4, sizeof b1);
-    std::memcpy(&b2, y + i + 8, sizeof b2);
-    std::memcpy(&b3, y + i + 12, sizeof b3);
-    const Mask4 w = {1, 2, 4, 8};
-    const Mask4 t = ((a0 != b0) & w) | ((a1 != b1) & (w << 4)) | ((a2 != b2) & (w << 8)) |
-                    ((a3 != b3) & (w << 12));
-    bits |= static_cast<std::uint64_t>(t[0] | t[1] | t[2] | t[3]) << i;
-  }
-  for (; i < n; ++i) {
-    const bool differ = std::bit_cast<std::uint64_t>(x[i]) != std::bit_cast<std::uint64_t>(y[i]);
-    bits |= static_cast<std::uint64_t>(differ) << i;
-  }
-  return bits;
 }
 
 // out[0..rows) = w[0..rows) + Σ_{l < cols} M(:, l)·x[l] for a column-major matrix M of 4 to 8
@@ -393,9 +364,8 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   data_.soft_bound = VecX::Zero(cap);
 
   a_entries_.resize(static_cast<std::size_t>(np_) * ns_ * ns_);
+  a_offsets_.resize(a_entries_.size());
   a_row_bits_.resize(a_entries_.size());
-  a_copy_.assign(a_entries_.size(), 0.0);  // all zero, as the empty listing below
-  a_entry_of_.assign(a_entries_.size(), -1);
   a_row_begin_.assign(static_cast<std::size_t>(np_) * ns_ + 1, 0);
   c_entries_.resize(static_cast<std::size_t>(ny_) * ns_);
   c_row_begin_.assign(ny_ + 1, 0);
@@ -546,7 +516,6 @@ void IncrementalMpc::collect_plant_nonzeros() {
   // the nonzeros once lets the rows of Γ (and, for plants outside 4 to 8 states, the free
   // response and the solution's simulation) skip the zeros without testing them again.
   const IncrementalMpcData& d = data_;
-  const int size = ns_ * ns_;
   int n = 0;
   bool same = true;  // every A_j so far has the nonzero positions listed by the last call
   // Listed by row (then column): the forward pass sums each row of Γ_j in one loop, and a
@@ -554,35 +523,26 @@ void IncrementalMpc::collect_plant_nonzeros() {
   for (int j = 0; j < np_; ++j) {
     const int old_begin = a_row_begin_[j * ns_], old_end = a_row_begin_[(j + 1) * ns_];
     const double* A = d.A[j].data();  // column-major n_s×n_s
-    // The common case (a plant whose Jacobian keeps its structure): A_j differs from the copy
-    // last read in a few entries (the UAV's four that depend on the nominal heading and speed),
-    // compared as bits a vector at a time, and every differing entry keeps its zero-ness: the
-    // listing stands, only the changed values are read, noting their rows (bit k: row k).
-    // Equal bits give equal sums (a NaN kept gives the same NaN rows); a listed entry that
-    // became ±0, or a zero that became nonzero (or NaN), lists A_j anew.
-    if (same && n == old_begin) {
-      double* __restrict copy = &a_copy_[static_cast<std::size_t>(j) * size];
-      const int* __restrict entry_of = &a_entry_of_[static_cast<std::size_t>(j) * size];
-      std::uint64_t changed = 0;
-      bool kept = true;
-      for (int w = 0; w < size && kept; w += 64) {
-        const std::uint64_t differing = differing_bits(A + w, copy + w, std::min(64, size - w));
-        for (std::uint64_t m = differing; m != 0; m &= m - 1) {
-          const int e = w + std::countr_zero(m);
-          const double v = A[e];
-          const int listed = entry_of[e];
-          if ((listed >= 0) != (v != 0.0)) {
-            kept = false;
-            break;
-          }
-          copy[e] = v;
-          if (listed >= 0) {
-            a_entries_[listed].value = v;
-            changed |= a_row_bits_[listed];
-          }
-        }
+    // The common case (a plant whose Jacobian keeps its structure): as many nonzeros as last
+    // time, and nonzero at every listed position, is the same set; only the values are read,
+    // noting the rows whose values changed (bit k: row k).
+    if (same && n == old_begin && count_nonzeros(A, ns_ * ns_) == old_end - old_begin) {
+      // Compared as bits: equal bits give equal sums (a NaN kept gives the same NaN rows).
+      // A listed entry that became ±0 has no bit set outside its sign.
+      // Each entry's place in A_j and its row's bit were noted when it was listed.
+      std::uint64_t changed = 0, zero = 0;
+      Entry* __restrict entries = a_entries_.data();
+      const int* __restrict offsets = a_offsets_.data();
+      const std::uint64_t* __restrict row_bits = a_row_bits_.data();
+      for (int e = old_begin; e < old_end; ++e) {
+        const double v = A[offsets[e]];
+        const std::uint64_t bits = std::bit_cast<std::uint64_t>(v);
+        const std::uint64_t old = std::bit_cast<std::uint64_t>(entries[e].value);
+        changed |= bits != old ? row_bits[e] : 0;
+        zero |= std::uint64_t{(bits << 1) == 0};
+        entries[e].value = v;
       }
-      if (kept) {
+      if (zero == 0) {
         a_changed_rows_[j] = changed;
         n = old_end;
         continue;
@@ -590,9 +550,6 @@ void IncrementalMpc::collect_plant_nonzeros() {
     }
     same = false;  // this step and every later one are listed anew
     a_changed_rows_[j] = ~std::uint64_t{0};
-    std::copy_n(A, size, &a_copy_[static_cast<std::size_t>(j) * size]);
-    int* entry_of = &a_entry_of_[static_cast<std::size_t>(j) * size];
-    std::fill_n(entry_of, size, -1);
     std::uint64_t* dependents = &a_dependents_[static_cast<std::size_t>(j) * ns_];
     std::fill_n(dependents, ns_, 0);
     for (int k = 0; k < ns_; ++k) {
@@ -600,8 +557,8 @@ void IncrementalMpc::collect_plant_nonzeros() {
       for (int l = 0; l < ns_; ++l) {
         const double v = A[l * ns_ + k];
         if (v == 0.0) continue;
+        a_offsets_[n] = l * ns_ + k;
         a_row_bits_[n] = std::uint64_t{1} << (k & 63);
-        entry_of[l * ns_ + k] = n;
         a_entries_[n++] = Entry{k, l, v};
         dependents[l] |= std::uint64_t{1} << (k & 63);
       }

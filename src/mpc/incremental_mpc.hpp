@@ -319,13 +319,10 @@ class IncrementalMpc {
   // a_row_begin_[j·n_s + k + 1]), and row k of C is c_entries_[c_row_begin_[k], …[k + 1]).
   std::vector<Entry> a_entries_;  // capacity Np·n_s²
   std::vector<int> a_row_begin_;  // Np·n_s + 1 offsets into a_entries_
-  // Of a_entries_[e]: its row's bit in a row mask (bit row & 63), for the values' update at
-  // each step.
+  // Of a_entries_[e]: its index in A_j's column-major storage (col·n_s + row), and its row's
+  // bit in a row mask (bit row & 63), for the values' update at each step.
+  std::vector<int> a_offsets_;
   std::vector<std::uint64_t> a_row_bits_;
-  // Each A_j as last read (Np·n_s², column-major each), and the index in a_entries_ of each of
-  // its entries (−1: zero, not listed), to read only the entries that changed.
-  std::vector<double> a_copy_;
-  std::vector<int> a_entry_of_;
   std::vector<Entry> c_entries_;  // capacity n_y·n_s, the first c_count_ used
   std::vector<int> c_row_begin_;  // n_y + 1 offsets into c_entries_
   // The nonzeros of B_j for the moves (j < Nc), listed the same way (row k of B_j:
