@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace ridgeline::benchmarks {
@@ -27,6 +28,54 @@ double dependent_adds_per_ns(int samples) {
   }
   std::nth_element(rates.begin(), rates.begin() + rates.size() / 2, rates.end());
   return rates[rates.size() / 2];
+}
+
+HostInterruptions summarize_interruptions(std::vector<double> gaps_us, double probed_us) {
+  HostInterruptions h;
+  h.probed_ms = probed_us / 1000.0;
+  h.count = static_cast<int>(gaps_us.size());
+  double lost = 0.0;
+  for (const double g : gaps_us) lost += g;
+  if (probed_us > 0.0) {
+    h.per_ms = h.count / h.probed_ms;
+    h.lost_fraction = lost / probed_us;
+  }
+  h.length_us = mission::percentiles(std::move(gaps_us));
+  return h;
+}
+
+HostInterruptions scan_for_interruptions(double (*now_us)(), double duration_us,
+                                         double threshold_us) {
+  // Room for every possible gap: a reallocation inside the scan would read as one.
+  std::vector<double> gaps_us;
+  gaps_us.reserve(static_cast<std::size_t>(std::max(duration_us / threshold_us, 0.0)) + 1);
+  const double start = now_us();
+  double previous = start;
+  for (;;) {
+    const double now = now_us();
+    if (now - previous > threshold_us) gaps_us.push_back(now - previous);
+    previous = now;
+    if (now - start >= duration_us) break;
+  }
+  return summarize_interruptions(std::move(gaps_us), previous - start);
+}
+
+HostInterruptions probe_interruptions(double duration_ms, double threshold_us) {
+  // Microseconds from a fixed origin: a double holds them to well below a nanosecond for days.
+  const auto steady_us = []() {
+    return std::chrono::duration<double, std::micro>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  };
+  return scan_for_interruptions(+steady_us, duration_ms * 1000.0, threshold_us);
+}
+
+nlohmann::json HostInterruptions::to_json() const {
+  return {{"probed_ms", probed_ms},
+          {"count", count},
+          {"per_ms", per_ms},
+          {"length_us", mission::to_json(length_us)},
+          {"lost_fraction", lost_fraction}};
 }
 
 nlohmann::json HostSpeed::to_json() const {

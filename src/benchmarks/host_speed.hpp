@@ -5,6 +5,9 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <vector>
+
+#include "mission/statistics.hpp"
 
 namespace ridgeline::benchmarks {
 
@@ -20,5 +23,33 @@ struct HostSpeed {
   double after = 0.0;
   nlohmann::json to_json() const;
 };
+
+/// The times this thread was kept from running while it wanted to: a gap between two
+/// back-to-back readings of the steady clock (a reading takes tens of nanoseconds) longer than
+/// a threshold is an interruption — a guest interrupt, another task, or the host pausing the
+/// virtual CPU, which no counter inside a guest need show (the development VMs report no steal
+/// time, yet lose about 36 µs every millisecond). A timed step that holds one is longer by its
+/// length whatever its code: at `per_ms` interruptions a millisecond a step of t µs holds one
+/// with probability about per_ms·t/1000, and once that share passes 1 % the step's p99 is about
+/// its median plus an interruption.
+struct HostInterruptions {
+  double probed_ms = 0.0;          ///< how long the clock was read
+  int count = 0;                   ///< gaps longer than the threshold
+  double per_ms = 0.0;             ///< count / probed_ms
+  mission::Percentiles length_us;  ///< of the gaps
+  double lost_fraction = 0.0;      ///< the gaps' sum / the probe's time
+  nlohmann::json to_json() const;
+};
+
+/// The summary of the gaps (µs, each above the threshold) found in `probed_us` of reading.
+HostInterruptions summarize_interruptions(std::vector<double> gaps_us, double probed_us);
+
+/// Reads the steady clock back to back for `duration_ms` on the calling thread and summarizes
+/// the gaps longer than `threshold_us`.
+HostInterruptions probe_interruptions(double duration_ms = 250.0, double threshold_us = 2.0);
+
+/// The probe's scan over any clock (µs readings; tests pass a scripted one).
+HostInterruptions scan_for_interruptions(double (*now_us)(), double duration_us,
+                                         double threshold_us);
 
 }  // namespace ridgeline::benchmarks

@@ -52,7 +52,9 @@ nlohmann::json MpcBenchmarkReport::to_json() const {
           {"ours_on_compared_qp_us_median", ours_on_compared_us_median},
           {"ipopt_over_ours_ratio", ipopt_over_ours_ratio},
           {"max_rel_objective_gap", max_rel_objective_gap},
-          {"host_speed", host_speed.to_json()}};
+          {"host_speed", host_speed.to_json()},
+          {"host_interruptions", host_interruptions.to_json()},
+          {"interrupted_step_share_expected", interrupted_step_share_expected}};
 }
 
 MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
@@ -120,6 +122,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   double t = 0.0;
   double rows = 0.0, rows_in_qp = 0.0, rows_computed = 0.0;
   report.host_speed.before = dependent_adds_per_ns();
+  report.host_interruptions = probe_interruptions();
   for (int k = 0; k < options.steps; ++k) {
     const double cpu_start = thread_cpu_us();
     const auto start = std::chrono::steady_clock::now();
@@ -173,6 +176,8 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   report.step_us = mission::percentiles(step_us);
   report.step_cpu_us = mission::percentiles(cpu_us);
   report.qp_us = mission::percentiles(qp_us);
+  report.interrupted_step_share_expected =
+      report.host_interruptions.per_ms * report.step_us.median / 1000.0;
   report.qp_iterations = mission::percentiles(iterations);
   report.parts.linearization_us = mission::percentiles(linearization_us).median;
   report.parts.condensing_us = mission::percentiles(condensing_us).median;

@@ -1,0 +1,78 @@
+// The interruption probe reported beside `bench mpc`'s tail: its summary of given gaps, its
+// scan over a scripted clock, and a probe of the real one.
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "benchmarks/host_speed.hpp"
+
+namespace ridgeline::benchmarks {
+namespace {
+
+// A host that pauses the thread 36 µs every millisecond, as the development VMs do, plus one
+// 100 µs pause, over 10 ms.
+TEST(HostInterruptions, TheSummaryCountsRatesAndLengthsOfTheGapsGiven) {
+  std::vector<double> gaps(10, 36.0);
+  gaps.push_back(100.0);
+  const HostInterruptions h = summarize_interruptions(gaps, 10'000.0);
+  EXPECT_DOUBLE_EQ(h.probed_ms, 10.0);
+  EXPECT_EQ(h.count, 11);
+  EXPECT_DOUBLE_EQ(h.per_ms, 1.1);
+  EXPECT_DOUBLE_EQ(h.length_us.median, 36.0);
+  EXPECT_DOUBLE_EQ(h.length_us.max, 100.0);
+  EXPECT_DOUBLE_EQ(h.lost_fraction, 460.0 / 10'000.0);
+  const nlohmann::json j = h.to_json();
+  EXPECT_EQ(j["count"], 11);
+  EXPECT_DOUBLE_EQ(j["length_us"]["max"].get<double>(), 100.0);
+  EXPECT_DOUBLE_EQ(j["per_ms"].get<double>(), 1.1);
+
+  const HostInterruptions none = summarize_interruptions({}, 0.0);
+  EXPECT_EQ(none.count, 0);
+  EXPECT_EQ(none.per_ms, 0.0);
+  EXPECT_EQ(none.lost_fraction, 0.0);
+}
+
+// A scripted clock: 30 ns a reading, with a 40 µs pause every 1000 readings and one of 3 µs,
+// over a 70 µs scan at a 2 µs threshold.
+int fake_reads = 0;
+double fake_now_us() {
+  const int n = fake_reads++;
+  double t = 0.03 * n + 40.0 * (n / 1000);
+  if (n >= 500) t += 3.0;
+  return t;
+}
+
+TEST(HostInterruptions, TheScanFindsEachPauseLongerThanTheThresholdAndStopsAtItsDuration) {
+  fake_reads = 0;
+  const HostInterruptions h = scan_for_interruptions(fake_now_us, 70.0, 2.0);
+  // Reading 500 jumps 3 µs, reading 1000 40 µs, which takes the clock past 70 µs: the scan
+  // stops there.
+  EXPECT_EQ(h.count, 2);
+  EXPECT_NEAR(h.length_us.max, 40.03, 1e-9);
+  EXPECT_NEAR(h.length_us.median, 3.03, 1e-9);
+  EXPECT_NEAR(h.probed_ms * 1000.0, 0.03 * 1000 + 43.0, 1e-9);
+  EXPECT_EQ(fake_reads, 1001);
+  // Above the 40 µs pause's length nothing is an interruption.
+  fake_reads = 0;
+  EXPECT_EQ(scan_for_interruptions(fake_now_us, 70.0, 41.0).count, 0);
+}
+
+// The probe on the real clock: it lasts as long as asked and its gaps fit in it.
+TEST(HostInterruptions, AProbeLastsItsDurationAndItsGapsFitInIt) {
+  const auto start = std::chrono::steady_clock::now();
+  const HostInterruptions h = probe_interruptions(20.0, 2.0);
+  const double elapsed_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_GE(h.probed_ms, 20.0);
+  EXPECT_LE(h.probed_ms, elapsed_ms);
+  EXPECT_GE(h.lost_fraction, 0.0);
+  EXPECT_LT(h.lost_fraction, 1.0);
+  EXPECT_NEAR(h.per_ms, h.count / h.probed_ms, 1e-9);
+  if (h.count > 0) {
+    EXPECT_GT(h.length_us.median, 2.0);  // only gaps above the threshold are counted
+    EXPECT_LE(h.length_us.max, h.probed_ms * 1000.0);
+  }
+}
+
+}  // namespace
+}  // namespace ridgeline::benchmarks
