@@ -61,6 +61,24 @@ TEST_F(Cli, DefaultScenarioRoundTripsThroughValidate) {
   EXPECT_THAT(valid.out, HasSubstr("3 UAVs"));
 }
 
+// CLI11's parse errors (a value that does not convert, an unknown option, a missing one) are bad
+// input like any other: one line naming the option, exit 2; --help still prints and exits 0.
+TEST_F(Cli, CommandLineErrorsAreOneLineNamingTheOptionAndExitTwo) {
+  for (const auto& [args, message] : {std::pair{"bench mpc --nc nan", "--nc"},
+                                      {"bench mpc --steps 1.5", "--steps"},
+                                      {"bench mpc --no-such-option", "--no-such-option"},
+                                      {"scenario team --targets 3", "--uavs"}}) {
+    const CliRun r = run(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_THAT(r.err, HasSubstr(message)) << args;
+    EXPECT_THAT(r.err, HasSubstr("error: ")) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << args << ": " << r.err;
+  }
+  const CliRun help = run("bench mpc --help");
+  EXPECT_EQ(help.exit_code, 0) << help.err;
+  EXPECT_THAT(help.out, HasSubstr("--np"));
+}
+
 TEST_F(Cli, ValidateListsEveryProblemByFieldAndFails) {
   std::string yaml = default_yaml();
   // Bury the first target in the tallest peak and give a threat a negative radius.
