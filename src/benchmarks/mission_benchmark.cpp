@@ -37,6 +37,7 @@ nlohmann::json MissionBenchmarkReport::to_json() const {
           {"all_safe", std::all_of(runs.begin(), runs.end(),
                                    [](const MissionBenchmarkRun& r) { return r.safe; })},
           {"host_speed", host_speed.to_json()},
+          {"host_interruptions", host_interruptions.to_json()},
           {"runs", runs_json}};
 }
 
@@ -51,6 +52,7 @@ MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
   std::vector<double> wall, cpu, rtf_wall, rtf_cpu;
   std::vector<double> first_path_lengths;
   report.host_speed.before = dependent_adds_per_ns();
+  report.host_interruptions = probe_interruptions();
   for (int k = 0; k < options.repeats; ++k) {
     const mission::MissionResult flown = sim::fly_mission(scenario, terrain, plan, mission_options);
     const mission::MissionMetrics& m = flown.metrics;

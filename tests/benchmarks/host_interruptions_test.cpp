@@ -65,8 +65,9 @@ TEST(HostInterruptions, AProbeLastsItsDurationAndItsGapsFitInIt) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   EXPECT_GE(h.probed_ms, 20.0);
   EXPECT_LE(h.probed_ms, elapsed_ms);
+  // On a loaded machine the whole probe can be one gap (the thread preempted past its end).
   EXPECT_GE(h.lost_fraction, 0.0);
-  EXPECT_LT(h.lost_fraction, 1.0);
+  EXPECT_LE(h.lost_fraction, 1.0);
   EXPECT_NEAR(h.per_ms, h.count / h.probed_ms, 1e-9);
   if (h.count > 0) {
     EXPECT_GT(h.length_us.median, 2.0);  // only gaps above the threshold are counted

@@ -49,6 +49,9 @@ TEST(MissionBenchmark, RepeatedFlightsAreIdenticalAndTheFactorsFollowFromTheirTi
   EXPECT_GT(r.host_speed.after, 0.0);
   EXPECT_EQ(j["host_speed"]["dependent_adds_per_ns_before"].get<double>(), r.host_speed.before);
   EXPECT_EQ(j["host_speed"]["dependent_adds_per_ns_after"].get<double>(), r.host_speed.after);
+  // The interruption probe ran (its own logic is tested in host_interruptions_test.cpp).
+  EXPECT_GE(r.host_interruptions.probed_ms, 250.0);
+  EXPECT_EQ(j["host_interruptions"]["count"].get<int>(), r.host_interruptions.count);
 }
 
 // The host-speed reading times a chain of dependent additions: a compiler that folded or
