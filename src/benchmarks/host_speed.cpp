@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <utility>
 #include <vector>
+
+#include "core/error.hpp"
 
 namespace ridgeline::benchmarks {
 
@@ -46,9 +49,19 @@ HostInterruptions summarize_interruptions(std::vector<double> gaps_us, double pr
 
 HostInterruptions scan_for_interruptions(double (*now_us)(), double duration_us,
                                          double threshold_us) {
-  // Room for every possible gap: a reallocation inside the scan would read as one.
+  if (!(std::isfinite(duration_us) && duration_us > 0.0)) {
+    throw InputError("duration", "must be finite and above 0");
+  }
+  if (!(std::isfinite(threshold_us) && threshold_us > 0.0)) {
+    throw InputError("threshold", "must be finite and above 0");
+  }
+  // Room for every possible gap (the gaps before the last reading sum to less than the
+  // duration, so there are at most duration / threshold + 1): a reallocation inside the scan
+  // would read as one. Beyond a million gaps (a threshold far below the clock's own cost) the
+  // vector grows instead.
+  constexpr double kMaxReserved = 1e6;
   std::vector<double> gaps_us;
-  gaps_us.reserve(static_cast<std::size_t>(std::max(duration_us / threshold_us, 0.0)) + 1);
+  gaps_us.reserve(static_cast<std::size_t>(std::min(duration_us / threshold_us, kMaxReserved)) + 1);
   const double start = now_us();
   double previous = start;
   for (;;) {

@@ -28,10 +28,10 @@ struct HostSpeed {
 /// back-to-back readings of the steady clock (a reading takes tens of nanoseconds) longer than
 /// a threshold is an interruption — a guest interrupt, another task, or the host pausing the
 /// virtual CPU, which no counter inside a guest need show (the development VMs report no steal
-/// time, yet lose about 36 µs every millisecond). A timed step that holds one is longer by its
-/// length whatever its code: at `per_ms` interruptions a millisecond a step of t µs holds one
-/// with probability about per_ms·t/1000, and once that share passes 1 % the step's p99 is about
-/// its median plus an interruption.
+/// time, yet lose tens of microseconds every millisecond: README "Speed"). A timed step that
+/// holds one is longer by its length whatever its code: at `per_ms` interruptions a millisecond
+/// a step of t µs holds one with probability about per_ms·t/1000, and once that share passes
+/// 1 % the step's p99 is about its median plus an interruption.
 struct HostInterruptions {
   double probed_ms = 0.0;          ///< how long the clock was read
   int count = 0;                   ///< gaps longer than the threshold
@@ -41,14 +41,22 @@ struct HostInterruptions {
   nlohmann::json to_json() const;
 };
 
+/// The probe the benchmarks run before their timed work: long enough to see a few hundred
+/// pauses of a host that pauses every millisecond, short beside the work.
+inline constexpr double kInterruptionProbeMs = 250.0;
+inline constexpr double kInterruptionThresholdUs = 2.0;
+
 /// The summary of the gaps (µs, each above the threshold) found in `probed_us` of reading.
 HostInterruptions summarize_interruptions(std::vector<double> gaps_us, double probed_us);
 
 /// Reads the steady clock back to back for `duration_ms` on the calling thread and summarizes
-/// the gaps longer than `threshold_us`.
-HostInterruptions probe_interruptions(double duration_ms = 250.0, double threshold_us = 2.0);
+/// the gaps longer than `threshold_us`. Throws InputError unless both are finite and > 0.
+HostInterruptions probe_interruptions(double duration_ms = kInterruptionProbeMs,
+                                      double threshold_us = kInterruptionThresholdUs);
 
-/// The probe's scan over any clock (µs readings; tests pass a scripted one).
+/// The probe's scan over any clock (µs readings; tests pass a scripted one). It ends at the
+/// first reading `duration_us` after the first, so the clock must advance. Throws InputError
+/// unless the duration and threshold are finite and > 0.
 HostInterruptions scan_for_interruptions(double (*now_us)(), double duration_us,
                                          double threshold_us);
 

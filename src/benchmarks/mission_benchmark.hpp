@@ -43,8 +43,8 @@ struct MissionBenchmarkReport {
   /// deterministic for a seed, so a difference is a bug, not noise).
   bool deterministic = true;
   HostSpeed host_speed;  ///< this core's speed before and after the flights
-  /// This thread's interruptions, probed for 250 ms before the flights: time the host took
-  /// from the core, which the CPU-time factor counts as the flights' (see HostInterruptions).
+  /// This thread's interruptions, probed before the flights (kInterruptionProbeMs): time the
+  /// host took from the core, which the CPU-time factor counts as the flights'.
   HostInterruptions host_interruptions;
   nlohmann::json to_json() const;
 };

@@ -64,9 +64,8 @@ struct MpcBenchmarkReport {
   double ipopt_over_ours_ratio = 0.0;  ///< ipopt median / ours median on the compared QPs
   double max_rel_objective_gap = 0.0;  ///< |J_ours − J_ipopt| / max(1, |J_ipopt|)
   HostSpeed host_speed;  ///< this core's speed before and after the steps
-  /// This thread's interruptions, probed for 250 ms before the steps, and the share of steps
-  /// expected to hold one (per_ms × the median step, wall): above 1 %, an interruption's length
-  /// is in the step's p99 (see HostInterruptions).
+  /// This thread's interruptions, probed before the steps (kInterruptionProbeMs), and the
+  /// share of steps expected to hold one: per_ms × the median step (wall) / 1000.
   HostInterruptions host_interruptions;
   double interrupted_step_share_expected = 0.0;
 

@@ -3,14 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <limits>
 
 #include "benchmarks/host_speed.hpp"
+#include "core/error.hpp"
 
 namespace ridgeline::benchmarks {
 namespace {
 
-// A host that pauses the thread 36 µs every millisecond, as the development VMs do, plus one
-// 100 µs pause, over 10 ms.
+// A host that pauses the thread 36 µs every millisecond, plus one 100 µs pause, over 10 ms.
 TEST(HostInterruptions, TheSummaryCountsRatesAndLengthsOfTheGapsGiven) {
   std::vector<double> gaps(10, 36.0);
   gaps.push_back(100.0);
@@ -55,6 +56,24 @@ TEST(HostInterruptions, TheScanFindsEachPauseLongerThanTheThresholdAndStopsAtIts
   // Above the 40 µs pause's length nothing is an interruption.
   fake_reads = 0;
   EXPECT_EQ(scan_for_interruptions(fake_now_us, 70.0, 41.0).count, 0);
+}
+
+TEST(HostInterruptions, ADurationOrThresholdThatIsNotFiniteAndPositiveIsAnError) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const double bad : {0.0, -1.0, nan, inf}) {
+    fake_reads = 0;
+    EXPECT_THROW(scan_for_interruptions(fake_now_us, bad, 2.0), InputError) << bad;
+    EXPECT_THROW(scan_for_interruptions(fake_now_us, 70.0, bad), InputError) << bad;
+    EXPECT_THROW(probe_interruptions(bad, 2.0), InputError) << bad;
+    EXPECT_EQ(fake_reads, 0) << "checked before the clock is read";
+  }
+  try {
+    probe_interruptions(10.0, nan);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "threshold");
+  }
 }
 
 // The probe on the real clock: it lasts as long as asked and its gaps fit in it.

@@ -29,7 +29,7 @@ TEST(MpcBenchmark, EveryStepSolvesAndTheDerivedFiguresFollowFromTheMeasuredOnes)
   EXPECT_GT(r.parts.condensing_us, 0.0);
   EXPECT_DOUBLE_EQ(r.step_over_qp, r.step_cpu_us.median / r.qp_us.median);
   // The interruption probe ran before the steps, and the share follows from it.
-  EXPECT_GE(r.host_interruptions.probed_ms, 250.0);
+  EXPECT_GE(r.host_interruptions.probed_ms, kInterruptionProbeMs);
   EXPECT_DOUBLE_EQ(r.interrupted_step_share_expected,
                    r.host_interruptions.per_ms * r.step_us.median / 1000.0);
   const nlohmann::json j = r.to_json();
