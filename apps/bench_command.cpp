@@ -1,16 +1,21 @@
 // `ridgeline bench mpc [--steps N] [--np NP] [--nc NC] [--ipopt-every K] [--dump-qps FILE]`:
-// measures the tracker's full 50 Hz step, with the medians of its parts, and compares its QP solver with Ipopt on the same QPs, printing
-// JSON; --dump-qps writes the QPs it built as an RLQP file.
+// measures the tracker's full 50 Hz step, with the medians of its parts, and compares its QP solver
+// with Ipopt on the same QPs, printing JSON; --dump-qps writes the QPs it built as an RLQP file.
 // `ridgeline bench mission [--scenario FILE] [--repeats N]`: plans once, flies the mission N
 // times and reports the real-time factor (median, in wall-clock and thread CPU time).
 // `ridgeline bench qp --instances FILE [--json] [--method M] [--reference R]`: times the QP
 // solver on the instances of an RLQP file in order, hot-started as the MPC does, against the
 // unconstrained Cholesky floor and a tight reference. Figures are medians and ratios from one
 // run: absolute times vary on shared machines.
+// `ridgeline bench host [--seconds S] [--threshold-us T]`: this core's speed and the
+// interruptions of the calling thread over S seconds (benchmarks/host_speed.hpp): what a timed
+// step's tail meets on this machine, before any of our code runs.
 // `ridgeline bench swarm [--uavs 8,16,32] [--latency-ms 0,100,300] [--loss 0.2] [--runs 100]
 // [--threads 2] [--radius-m 250] [--scenario FILE] [--out DIR]`: circle swaps over the
 // scenario's terrain (benchmarks/swarm_benchmark.hpp), a table like RMADER's; DIR gets
 // swarm.json and swarm.md.
+#include <sched.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -18,14 +23,15 @@
 
 #include "apps/command_support.hpp"
 #include "apps/commands.hpp"
+#include "benchmarks/host_speed.hpp"
 #include "benchmarks/mission_benchmark.hpp"
 #include "benchmarks/mpc_benchmark.hpp"
 #include "benchmarks/plan_benchmark.hpp"
 #include "benchmarks/qp_benchmark.hpp"
 #include "benchmarks/replan_benchmark.hpp"
 #include "benchmarks/swarm_benchmark.hpp"
-#include "io/atomic_file.hpp"
 #include "core/error.hpp"
+#include "io/atomic_file.hpp"
 #include "mission/stage_inputs.hpp"
 #include "qp/qp_instance_file.hpp"
 
@@ -135,6 +141,38 @@ void register_bench_command(CLI::App& app) {
     const benchmarks::MissionBenchmarkReport report = benchmarks::run_mission_benchmark(
         loaded.scenario, loaded.terrain, *plan, mission_options->benchmark);
     std::cout << report.to_json().dump(2) << '\n';
+  });
+
+  struct HostCommandOptions {
+    double seconds = 5.0;
+    double threshold_us = benchmarks::kInterruptionThresholdUs;
+  };
+  auto host_options = std::make_shared<HostCommandOptions>();
+  CLI::App* host = bench->add_subcommand(
+      "host", "This core's speed and the pauses of this thread (run it pinned: taskset -c N)");
+  host->add_option("--seconds", host_options->seconds, "how long to read the clock")
+      ->capture_default_str();
+  host->add_option("--threshold-us", host_options->threshold_us,
+                   "a gap between two clock readings longer than this is a pause")
+      ->capture_default_str();
+  host->callback([host_options] {
+    // Bounded so that a typo cannot hold a core for hours; a day covers any soak test.
+    if (!(std::isfinite(host_options->seconds) && host_options->seconds > 0.0 &&
+          host_options->seconds <= 86400.0)) {
+      throw InputError("--seconds", "must be above 0 and at most 86400");
+    }
+    if (!(std::isfinite(host_options->threshold_us) && host_options->threshold_us > 0.0)) {
+      throw InputError("--threshold-us", "must be finite and above 0");
+    }
+    const int cpu = sched_getcpu();
+    const double speed = benchmarks::dependent_adds_per_ns();
+    const benchmarks::HostInterruptions pauses =
+        benchmarks::probe_interruptions(host_options->seconds * 1000.0, host_options->threshold_us);
+    const nlohmann::json report = {{"cpu", cpu},
+                                   {"dependent_adds_per_ns", speed},
+                                   {"threshold_us", host_options->threshold_us},
+                                   {"host_interruptions", pauses.to_json()}};
+    std::cout << report.dump(2) << '\n';
   });
 
   auto options = std::make_shared<benchmarks::MpcBenchmarkOptions>();

@@ -79,6 +79,27 @@ TEST_F(Cli, CommandLineErrorsAreOneLineNamingTheOptionAndExitTwo) {
   EXPECT_THAT(help.out, HasSubstr("--np"));
 }
 
+// `bench host` probes the thread for as long as asked and prints the probe as JSON; a duration
+// or threshold that is not finite and positive is an error naming the option.
+TEST_F(Cli, BenchHostReportsThePausesOfItsThreadAndRejectsBadDurations) {
+  const CliRun r = run("bench host --seconds 0.05");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* field : {"\"cpu\"", "\"dependent_adds_per_ns\"", "\"host_interruptions\"",
+                            "\"probed_ms\"", "\"per_ms\"", "\"lost_fraction\""}) {
+    EXPECT_THAT(r.out, HasSubstr(field));
+  }
+  for (const auto& [args, option] : {std::pair{"--seconds 0", "--seconds"},
+                                     {"--seconds nan", "--seconds"},
+                                     {"--seconds 1e9", "--seconds"},
+                                     {"--threshold-us -1", "--threshold-us"},
+                                     {"--threshold-us inf", "--threshold-us"}}) {
+    const CliRun bad = run(std::string("bench host ") + args);
+    EXPECT_EQ(bad.exit_code, 2) << args;
+    EXPECT_THAT(bad.err, HasSubstr(option)) << args;
+    EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  }
+}
+
 TEST_F(Cli, ValidateListsEveryProblemByFieldAndFails) {
   std::string yaml = default_yaml();
   // Bury the first target in the tallest peak and give a threat a negative radius.
