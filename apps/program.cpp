@@ -16,8 +16,6 @@ void set_exit_code(int code) { g_exit_code = code; }
 int parse_and_run(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
-  } catch (const CLI::RuntimeError& e) {
-    return app.exit(e);  // a callback that asked for its own exit code (none does today)
   } catch (const CLI::ParseError& e) {
     // --help and --version reach here as "errors" that print and exit 0. A real parse error
     // (a value that does not convert, an unknown or missing option) is bad input like any
