@@ -169,6 +169,7 @@ void register_bench_command(CLI::App& app) {
     const benchmarks::HostInterruptions pauses =
         benchmarks::probe_interruptions(host_options->seconds * 1000.0, host_options->threshold_us);
     const nlohmann::json report = {{"cpu", cpu},
+                                   {"processor", benchmarks::this_processor()},
                                    {"dependent_adds_per_ns", speed},
                                    {"threshold_us", host_options->threshold_us},
                                    {"host_interruptions", pauses.to_json()}};

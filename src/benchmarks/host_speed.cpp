@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
+#include <sstream>
 #include <utility>
 #include <vector>
 
@@ -91,8 +93,56 @@ nlohmann::json HostInterruptions::to_json() const {
           {"lost_fraction", lost_fraction}};
 }
 
+std::string describe_processor(std::string_view cpuinfo) {
+  // "key<tabs>: value" lines; the first processor's entry ends at the first blank line.
+  std::string model_name, vendor, family, model;
+  while (!cpuinfo.empty()) {
+    const std::size_t end = cpuinfo.find('\n');
+    std::string_view line = cpuinfo.substr(0, end);
+    cpuinfo = end == std::string_view::npos ? std::string_view{} : cpuinfo.substr(end + 1);
+    if (line.find_first_not_of(" \t\r") == std::string_view::npos) {
+      if (!model_name.empty()) break;  // the end of the first entry that names a model
+      continue;
+    }
+    const std::size_t colon = line.find(':');
+    if (colon == std::string_view::npos) continue;
+    const auto trim = [](std::string_view s) {
+      const std::size_t first = s.find_first_not_of(" \t\r");
+      if (first == std::string_view::npos) return std::string{};
+      return std::string(s.substr(first, s.find_last_not_of(" \t\r") - first + 1));
+    };
+    const std::string key = trim(line.substr(0, colon)), value = trim(line.substr(colon + 1));
+    std::string* field = key == "model name"   ? &model_name
+                         : key == "vendor_id"  ? &vendor
+                         : key == "cpu family" ? &family
+                         : key == "model"      ? &model
+                                               : nullptr;
+    if (field != nullptr && field->empty()) *field = value;
+  }
+  if (model_name.empty()) return {};
+  std::string ids = vendor;
+  for (const auto& [label, value] : {std::pair{"family ", &family}, {"model ", &model}}) {
+    if (value->empty()) continue;
+    if (!ids.empty()) ids.append(" ");
+    ids.append(label).append(*value);
+  }
+  if (ids.empty()) return model_name;
+  model_name.append(" (").append(ids).append(")");
+  return model_name;
+}
+
+std::string this_processor() {
+  std::ifstream file("/proc/cpuinfo");
+  std::ostringstream text;
+  if (file) text << file.rdbuf();
+  std::string description = describe_processor(text.str());
+  return description.empty() ? "unknown" : description;
+}
+
 nlohmann::json HostSpeed::to_json() const {
-  return {{"dependent_adds_per_ns_before", before}, {"dependent_adds_per_ns_after", after}};
+  return {{"dependent_adds_per_ns_before", before},
+          {"dependent_adds_per_ns_after", after},
+          {"processor", processor}};
 }
 
 }  // namespace ridgeline::benchmarks

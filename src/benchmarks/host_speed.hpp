@@ -5,6 +5,8 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "mission/statistics.hpp"
@@ -17,10 +19,24 @@ namespace ridgeline::benchmarks {
 /// actually ran at, turbo, throttling and stolen time included.
 double dependent_adds_per_ns(int samples = 5);
 
-/// Readings of dependent_adds_per_ns before and after a benchmark's timed runs.
+/// The processor a /proc/cpuinfo text describes (its first entry): "model name (vendor_id family
+/// F model M)", e.g. "Intel(R) Xeon(R) Processor (GenuineIntel family 6 model 207)". Machines of
+/// one kind need not share a processor (issue 21 met an AMD EPYC Zen 5 and an Intel Xeon of
+/// another generation, the same code 1.4× slower on the second), and a virtual machine may hide
+/// the product name ("Intel(R) Xeon(R) Processor"): family and model still tell the generation.
+/// Empty when the text names no model.
+std::string describe_processor(std::string_view cpuinfo);
+
+/// describe_processor of this machine's /proc/cpuinfo; "unknown" where it cannot be read or
+/// names no model (not Linux).
+std::string this_processor();
+
+/// Readings of dependent_adds_per_ns before and after a benchmark's timed runs, and the
+/// processor they ran on.
 struct HostSpeed {
   double before = 0.0;
   double after = 0.0;
+  std::string processor;  ///< this_processor()
   nlohmann::json to_json() const;
 };
 

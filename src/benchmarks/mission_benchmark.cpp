@@ -51,6 +51,7 @@ MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
   sim::MissionOptions mission_options;  // records trajectories, as `ridgeline run` does
   std::vector<double> wall, cpu, rtf_wall, rtf_cpu;
   std::vector<double> first_path_lengths;
+  report.host_speed.processor = this_processor();
   report.host_speed.before = dependent_adds_per_ns();
   report.host_interruptions = probe_interruptions();
   for (int k = 0; k < options.repeats; ++k) {

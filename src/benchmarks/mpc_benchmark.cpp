@@ -121,6 +121,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   const double dt_truth = tracker_options.control_period_s / truth_substeps;
   double t = 0.0;
   double rows = 0.0, rows_in_qp = 0.0, rows_computed = 0.0;
+  report.host_speed.processor = this_processor();
   report.host_speed.before = dependent_adds_per_ns();
   report.host_interruptions = probe_interruptions();
   for (int k = 0; k < options.steps; ++k) {

@@ -61,7 +61,8 @@ nlohmann::json QpBenchmarkReport::to_json() const {
           {"floor_llt_us", {{"median", floor_llt_us_median}}},
           {"median_over_floor",
            floor_llt_us_median > 0.0 ? solve_us.median / floor_llt_us_median : 0.0},
-          {"p99_over_median", solve_us.median > 0.0 ? solve_us.p99 / solve_us.median : 0.0}};
+          {"p99_over_median", solve_us.median > 0.0 ? solve_us.p99 / solve_us.median : 0.0},
+          {"host_speed", host_speed.to_json()}};
 }
 
 QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
@@ -82,6 +83,8 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
   solutions.reserve(count);
   Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::VectorXd x;
+  report.host_speed.processor = this_processor();
+  report.host_speed.before = dependent_adds_per_ns();
   for (int pass = 0; pass < report.repeats; ++pass) {
     qp::QpSolver solver(options.settings);
     for (std::size_t k = 0; k < count; ++k) {
@@ -114,6 +117,7 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
       floor_us[k] = std::min(floor_us[k], elapsed_us(floor_start));
     }
   }
+  report.host_speed.after = dependent_adds_per_ns();
   // Accuracy, outside the timed region.
   qp::QpSolver reference_solver(qp::QpSettings{.tolerance = 1e-10, .warm_start = false});
   for (std::size_t k = 0; k < instances.size(); ++k) {

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "benchmarks/host_speed.hpp"
 #include "mission/statistics.hpp"
 #include "qp/qp_solver.hpp"
 
@@ -49,6 +50,7 @@ struct QpBenchmarkReport {
   double floor_llt_us_median = 0.0;    ///< LLT factor + solve of Hz = −f, same instances
   std::string method;
   std::string reference;
+  HostSpeed host_speed;  ///< read before and after the timed passes
 
   nlohmann::json to_json() const;
 };

@@ -84,8 +84,9 @@ TEST_F(Cli, CommandLineErrorsAreOneLineNamingTheOptionAndExitTwo) {
 TEST_F(Cli, BenchHostReportsThePausesOfItsThreadAndRejectsBadDurations) {
   const CliRun r = run("bench host --seconds 0.05");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* field : {"\"cpu\"", "\"dependent_adds_per_ns\"", "\"host_interruptions\"",
-                            "\"probed_ms\"", "\"per_ms\"", "\"lost_fraction\""}) {
+  for (const char* field :
+       {"\"cpu\"", "\"processor\"", "\"dependent_adds_per_ns\"", "\"host_interruptions\"",
+        "\"probed_ms\"", "\"per_ms\"", "\"lost_fraction\""}) {
     EXPECT_THAT(r.out, HasSubstr(field));
   }
   for (const auto& [args, option] : {std::pair{"--seconds 0", "--seconds"},

@@ -1,8 +1,9 @@
 // The interruption probe reported beside `bench mpc`'s tail: its summary of given gaps, its
-// scan over a scripted clock, and a probe of the real one.
+// scan over a scripted clock, and a probe of the real one; and the processor a benchmark names.
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <limits>
 
 #include "benchmarks/host_speed.hpp"
@@ -92,6 +93,44 @@ TEST(HostInterruptions, AProbeLastsItsDurationAndItsGapsFitInIt) {
     EXPECT_GT(h.length_us.median, 2.0);  // only gaps above the threshold are counted
     EXPECT_LE(h.length_us.max, h.probed_ms * 1000.0);
   }
+}
+
+// /proc/cpuinfo's first entry names the processor: its model name, then vendor, family and
+// model (a VM's generic "Intel(R) Xeon(R) Processor" is told apart by them). The later entries,
+// other keys ("model" inside "model name") and spacing do not confuse it.
+TEST(DescribeProcessor, NamesTheFirstEntrysModelWithItsVendorFamilyAndModel) {
+  const char* xeon =
+      "processor\t: 0\nvendor_id\t: GenuineIntel\ncpu family\t: 6\nmodel\t\t: 207\n"
+      "model name\t: Intel(R) Xeon(R) Processor\nstepping\t: 2\n\n"
+      "processor\t: 1\nvendor_id\t: OtherVendor\ncpu family\t: 9\nmodel\t\t: 1\n"
+      "model name\t: Something Else\n";
+  EXPECT_EQ(describe_processor(xeon),
+            "Intel(R) Xeon(R) Processor (GenuineIntel family 6 model 207)");
+  // The model name before the ids, CRLF line ends, and a value with a colon.
+  const char* epyc =
+      "model name : AMD EPYC 9R45 96-Core Processor: rev B\r\nvendor_id : AuthenticAMD\r\n"
+      "cpu family : 26\r\nmodel : 2\r\n";
+  EXPECT_EQ(describe_processor(epyc),
+            "AMD EPYC 9R45 96-Core Processor: rev B (AuthenticAMD family 26 model 2)");
+  // A model name alone (an ARM kernel may give neither family nor model).
+  EXPECT_EQ(describe_processor("model name\t: Cortex-A78AE\n"), "Cortex-A78AE");
+  // No model name: nothing to report (this_processor then says "unknown").
+  EXPECT_EQ(describe_processor(""), "");
+  EXPECT_EQ(describe_processor("vendor_id : GenuineIntel\ncpu family : 6\n\n"), "");
+  EXPECT_EQ(describe_processor("model name :   \n"), "");
+}
+
+TEST(DescribeProcessor, ThisMachineIsNamedAsItsCpuinfoSays) {
+  const std::string name = this_processor();
+  ASSERT_FALSE(name.empty());
+  std::ifstream file("/proc/cpuinfo");
+  if (!file) {
+    EXPECT_EQ(name, "unknown");
+    return;
+  }
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::string expected = describe_processor(text);
+  EXPECT_EQ(name, expected.empty() ? "unknown" : expected);
 }
 
 }  // namespace

@@ -49,6 +49,9 @@ TEST(MissionBenchmark, RepeatedFlightsAreIdenticalAndTheFactorsFollowFromTheirTi
   EXPECT_GT(r.host_speed.after, 0.0);
   EXPECT_EQ(j["host_speed"]["dependent_adds_per_ns_before"].get<double>(), r.host_speed.before);
   EXPECT_EQ(j["host_speed"]["dependent_adds_per_ns_after"].get<double>(), r.host_speed.after);
+  // And the processor it ran on.
+  EXPECT_EQ(r.host_speed.processor, this_processor());
+  EXPECT_EQ(j["host_speed"]["processor"].get<std::string>(), r.host_speed.processor);
   // The interruption probe ran (its own logic is tested in host_interruptions_test.cpp).
   EXPECT_GE(r.host_interruptions.probed_ms, kInterruptionProbeMs);
   EXPECT_EQ(j["host_interruptions"]["count"].get<int>(), r.host_interruptions.count);
