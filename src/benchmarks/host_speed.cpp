@@ -94,41 +94,54 @@ nlohmann::json HostInterruptions::to_json() const {
 }
 
 std::string describe_processor(std::string_view cpuinfo) {
-  // "key<tabs>: value" lines; the first processor's entry ends at the first blank line.
-  std::string model_name, vendor, family, model;
+  // "key<tabs>: value" lines, one entry a processor, entries separated by a blank line; only
+  // the first entry is read, so that no field comes from another processor.
+  struct Field {
+    std::string_view key, label;  // the label names the value in the description
+    std::string value;
+  };
+  std::string model_name;
+  Field ids[] = {{"vendor_id", "", {}},
+                 {"cpu family", "family ", {}},
+                 {"model", "model ", {}},
+                 {"CPU implementer", "implementer ", {}},
+                 {"CPU part", "part ", {}},
+                 {"CPU variant", "variant ", {}},
+                 {"CPU revision", "revision ", {}}};
+  const auto trim = [](std::string_view s) {
+    const std::size_t first = s.find_first_not_of(" \t\r");
+    if (first == std::string_view::npos) return std::string_view{};
+    return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
+  };
+  bool in_entry = false;
   while (!cpuinfo.empty()) {
     const std::size_t end = cpuinfo.find('\n');
-    std::string_view line = cpuinfo.substr(0, end);
+    const std::string_view line = cpuinfo.substr(0, end);
     cpuinfo = end == std::string_view::npos ? std::string_view{} : cpuinfo.substr(end + 1);
-    if (line.find_first_not_of(" \t\r") == std::string_view::npos) {
-      if (!model_name.empty()) break;  // the end of the first entry that names a model
+    if (trim(line).empty()) {
+      if (in_entry) break;  // the end of the first entry
       continue;
     }
+    in_entry = true;
     const std::size_t colon = line.find(':');
     if (colon == std::string_view::npos) continue;
-    const auto trim = [](std::string_view s) {
-      const std::size_t first = s.find_first_not_of(" \t\r");
-      if (first == std::string_view::npos) return std::string{};
-      return std::string(s.substr(first, s.find_last_not_of(" \t\r") - first + 1));
-    };
-    const std::string key = trim(line.substr(0, colon)), value = trim(line.substr(colon + 1));
-    std::string* field = key == "model name"   ? &model_name
-                         : key == "vendor_id"  ? &vendor
-                         : key == "cpu family" ? &family
-                         : key == "model"      ? &model
-                                               : nullptr;
-    if (field != nullptr && field->empty()) *field = value;
+    const std::string_view key = trim(line.substr(0, colon)), value = trim(line.substr(colon + 1));
+    if (key == "model name" && model_name.empty()) model_name = value;
+    for (Field& f : ids) {
+      if (key == f.key && f.value.empty()) f.value = value;
+    }
   }
-  if (model_name.empty()) return {};
-  std::string ids = vendor;
-  for (const auto& [label, value] : {std::pair{"family ", &family}, {"model ", &model}}) {
-    if (value->empty()) continue;
-    if (!ids.empty()) ids.append(" ");
-    ids.append(label).append(*value);
+  // x86 names a model, vendor, family and model; arm64 only an implementer, part, variant and
+  // revision (the part tells the core, e.g. 0xd42 a Cortex-A78AE).
+  std::string described;
+  for (const Field& f : ids) {
+    if (f.value.empty()) continue;
+    if (!described.empty()) described.append(" ");
+    described.append(f.label).append(f.value);
   }
-  if (ids.empty()) return model_name;
-  model_name.append(" (").append(ids).append(")");
-  return model_name;
+  if (model_name.empty()) return described;
+  if (described.empty()) return model_name;
+  return model_name.append(" (").append(described).append(")");
 }
 
 std::string this_processor() {

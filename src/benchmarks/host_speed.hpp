@@ -19,12 +19,13 @@ namespace ridgeline::benchmarks {
 /// actually ran at, turbo, throttling and stolen time included.
 double dependent_adds_per_ns(int samples = 5);
 
-/// The processor a /proc/cpuinfo text describes (its first entry): "model name (vendor_id family
-/// F model M)", e.g. "Intel(R) Xeon(R) Processor (GenuineIntel family 6 model 207)". Machines of
-/// one kind need not share a processor (issue 21 met an AMD EPYC Zen 5 and an Intel Xeon of
-/// another generation, the same code 1.4× slower on the second), and a virtual machine may hide
-/// the product name ("Intel(R) Xeon(R) Processor"): family and model still tell the generation.
-/// Empty when the text names no model.
+/// The processor a /proc/cpuinfo text describes, from its first entry only: on x86 "model name
+/// (vendor_id family F model M)", e.g. "Intel(R) Xeon(R) Processor (GenuineIntel family 6 model
+/// 207)"; on arm64, which names no model, "implementer I part P variant V revision R" (the part
+/// tells the core). Machines of one kind need not share a processor (issue 21 met an AMD EPYC
+/// Zen 5 and an Intel Xeon, the same code 1.2–1.6× slower on the second), and a virtual machine
+/// may hide the product name ("Intel(R) Xeon(R) Processor"): family and model still tell the
+/// generation. Empty when the first entry names none of these.
 std::string describe_processor(std::string_view cpuinfo);
 
 /// describe_processor of this machine's /proc/cpuinfo; "unknown" where it cannot be read or
