@@ -28,8 +28,8 @@ double dependent_adds_per_ns(int samples = 5);
 /// generation. Empty when the first entry names none of these.
 std::string describe_processor(std::string_view cpuinfo);
 
-/// describe_processor of this machine's /proc/cpuinfo; "unknown" where it cannot be read or
-/// names no model (not Linux).
+/// describe_processor of this machine's /proc/cpuinfo; "unknown" where it cannot be read (not
+/// Linux) or describes nothing.
 std::string this_processor();
 
 /// Readings of dependent_adds_per_ns before and after a benchmark's timed runs, and the
