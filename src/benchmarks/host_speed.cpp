@@ -152,6 +152,11 @@ std::string this_processor() {
   return description.empty() ? "unknown" : description;
 }
 
+void HostSpeed::read_before() {
+  processor = this_processor();
+  before = dependent_adds_per_ns();
+}
+
 nlohmann::json HostSpeed::to_json() const {
   return {{"dependent_adds_per_ns_before", before},
           {"dependent_adds_per_ns_after", after},

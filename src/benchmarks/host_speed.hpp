@@ -38,6 +38,10 @@ struct HostSpeed {
   double before = 0.0;
   double after = 0.0;
   std::string processor;  ///< this_processor()
+  /// Before the timed runs: the processor and the first reading.
+  void read_before();
+  /// After them: the second reading.
+  void read_after() { after = dependent_adds_per_ns(); }
   nlohmann::json to_json() const;
 };
 

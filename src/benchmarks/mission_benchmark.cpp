@@ -51,8 +51,7 @@ MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
   sim::MissionOptions mission_options;  // records trajectories, as `ridgeline run` does
   std::vector<double> wall, cpu, rtf_wall, rtf_cpu;
   std::vector<double> first_path_lengths;
-  report.host_speed.processor = this_processor();
-  report.host_speed.before = dependent_adds_per_ns();
+  report.host_speed.read_before();
   report.host_interruptions = probe_interruptions();
   for (int k = 0; k < options.repeats; ++k) {
     const mission::MissionResult flown = sim::fly_mission(scenario, terrain, plan, mission_options);
@@ -80,7 +79,7 @@ MissionBenchmarkReport run_mission_benchmark(const mission::Scenario& scenario,
     rtf_cpu.push_back(r.cpu_time_s > 0.0 ? r.sim_time_s / r.cpu_time_s : 0.0);
     report.runs.push_back(r);
   }
-  report.host_speed.after = dependent_adds_per_ns();
+  report.host_speed.read_after();
   report.wall_time_s_median = median(wall);
   report.cpu_time_s_median = median(cpu);
   report.real_time_factor_wall = median(rtf_wall);

@@ -121,8 +121,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
   const double dt_truth = tracker_options.control_period_s / truth_substeps;
   double t = 0.0;
   double rows = 0.0, rows_in_qp = 0.0, rows_computed = 0.0;
-  report.host_speed.processor = this_processor();
-  report.host_speed.before = dependent_adds_per_ns();
+  report.host_speed.read_before();
   report.host_interruptions = probe_interruptions();
   for (int k = 0; k < options.steps; ++k) {
     const double cpu_start = thread_cpu_us();
@@ -166,7 +165,7 @@ MpcBenchmarkReport run_mpc_benchmark(const MpcBenchmarkOptions& options) {
       state = vehicle::rk4_step(state, r.command, wind, truth, dt_truth);
     t += tracker_options.control_period_s;
   }
-  report.host_speed.after = dependent_adds_per_ns();
+  report.host_speed.read_after();
   report.steps = options.steps;
   report.prediction_horizon = options.prediction_horizon;
   report.control_horizon = options.control_horizon;

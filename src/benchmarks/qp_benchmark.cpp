@@ -83,8 +83,7 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
   solutions.reserve(count);
   Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::VectorXd x;
-  report.host_speed.processor = this_processor();
-  report.host_speed.before = dependent_adds_per_ns();
+  report.host_speed.read_before();
   for (int pass = 0; pass < report.repeats; ++pass) {
     qp::QpSolver solver(options.settings);
     for (std::size_t k = 0; k < count; ++k) {
@@ -117,7 +116,7 @@ QpBenchmarkReport run_qp_benchmark(const std::vector<qp::QpProblem>& instances,
       floor_us[k] = std::min(floor_us[k], elapsed_us(floor_start));
     }
   }
-  report.host_speed.after = dependent_adds_per_ns();
+  report.host_speed.read_after();
   // Accuracy, outside the timed region.
   qp::QpSolver reference_solver(qp::QpSettings{.tolerance = 1e-10, .warm_start = false});
   for (std::size_t k = 0; k < instances.size(); ++k) {
