@@ -47,6 +47,22 @@ struct Rotation {
   }
 };
 
+constexpr int kCacheLine = 64;  // bytes (x86-64 and the usual arm64 cores)
+
+// Fetches the next `lines` cache lines of the rows ahead of their first use (see
+// DualActiveSet::solve): spread over the columns of the factorizations, the transfers overlap
+// their arithmetic instead of stalling the product G·z that first reads the rows.
+inline __attribute__((always_inline)) void fetch_ahead(LinePrefetch* fetch, int lines) {
+  if (fetch == nullptr) return;
+  for (int k = 0; k < lines && fetch->next < fetch->end; ++k, fetch->next += kCacheLine) {
+    __builtin_prefetch(fetch->next, 0, 3);
+  }
+}
+// Lines fetched per column of a factorization or triangular solve: enough that G (about 45 KB
+// in gen_mpc_qps.py's default instances) is mostly in the cache by the product G·z, few enough
+// that the outstanding fetches do not stall the column's arithmetic.
+constexpr int kLinesPerColumn = 8;
+
 // H = LLᵀ, reading H's lower triangle; false unless every pivot is positive. Left-looking
 // by columns: column j of L is H's minus the earlier columns k < j weighted by L(j, k), four
 // rows at a time with their sums in registers. For the MPC's n ≈ 30 this runs in a fraction of
@@ -64,7 +80,8 @@ struct Rotation {
 // at the same rows. Rows below an envelope are exact zeros either way: only the sign of a zero
 // can differ from the whole-column computation.
 RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, double* L,
-                                          Eigen::Index ldl, Eigen::Index n, int* end) {
+                                          Eigen::Index ldl, Eigen::Index n, int* end,
+                                          LinePrefetch* fetch = nullptr) {
   const auto L_at = [&](Eigen::Index i, Eigen::Index k) { return L[k * ldl + i]; };
   // The largest end[k] of the columns so far; end[] never decreases (each column's end is at
   // least this), so the first column whose envelope reaches row j only moves down: the columns
@@ -99,6 +116,7 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
       end[j] = static_cast<int>(last);
       reach = std::max(reach, last);
     }
+    fetch_ahead(fetch, kLinesPerColumn);
     if (h != col) {
       for (Eigen::Index i = j; i < last; ++i) col[i] = h[i];
     }
@@ -146,8 +164,8 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
 }
 
 // L_ = chol(H) with its envelope (the active set's factor).
-bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L, int* end) {
-  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows(), end);
+bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L, int* end, LinePrefetch* fetch) {
+  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows(), end, fetch);
 }
 
 // max |L(j, j)| / min |L(j, j)| of a Cholesky factor: its square estimates the condition
@@ -210,8 +228,9 @@ RIDGELINE_SIMD_CLONES void back_substitute_transposed(const double* L, Eigen::In
 
 // S's lower triangle = YᵀY for the first k columns of Y (n rows), column-major S.
 RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, int k, double* S,
-                                      Eigen::Index lds) {
+                                      Eigen::Index lds, LinePrefetch* fetch) {
   for (int a = 0; a < k; ++a) {
+    fetch_ahead(fetch, kLinesPerColumn);
     const double* ya = Y.col(a).data();
     for (int b = a; b < k; ++b) S[a * lds + b] = dot(Y.col(b).data(), ya, n);
   }
@@ -221,9 +240,11 @@ RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, 
 // down a column of L (Eigen's blocked triangular solve is sized for larger matrices), stopping
 // at the column's envelope (cholesky_lower).
 RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, const int* end,
-                                               Eigen::MatrixXd& Y, int k) {
+                                               Eigen::MatrixXd& Y, int k,
+                                               LinePrefetch* fetch = nullptr) {
   const Eigen::Index n = L.rows();
   for (int c = 0; c < k; ++c) {
+    fetch_ahead(fetch, kLinesPerColumn);
     double* __restrict y = Y.col(c).data();
     for (Eigen::Index j = 0; j < n; ++j) {
       if (y[j] == 0.0) continue;  // a normal's leading zeros stay zero
@@ -601,11 +622,11 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       Y.col(j).setZero();
       add_normal(active_[j], 1.0, Y.col(j));
     }
-    solve_lower_columns(L_, l_end_.data(), Y_, k);
+    solve_lower_columns(L_, l_end_.data(), Y_, k, &fetch_);
     // S = YᵀY = NᵀH⁻¹N, factored in place.
     double* S = S_.data();
     const Eigen::Index lds = S_.outerStride();
-    gram_lower(Y_, n, k, S, lds);
+    gram_lower(Y_, n, k, S, lds, &fetch_);
     if (!cholesky_lower(S, lds, S, lds, k, nullptr)) return false;
     const double ratio = diagonal_ratio(S, lds, k);
     if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
@@ -660,7 +681,15 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   iterations_ = 0;
   count_ = 0;
   fast_path_ = false;
-  if (!cholesky_lower(q.H, L_, l_end_.data())) return ActiveSetOutcome::kNotStrictlyConvex;
+  // The general rows are first read whole by the product G·z, after the factorizations; a
+  // caller's rows that are not in the cache (a stored sequence of problems) are fetched during
+  // them, a few lines a column (for rows the caller has just written, the fetches find them in
+  // the cache and cost about one instruction a line).
+  fetch_.next = reinterpret_cast<const char*>(q.G.data());
+  fetch_.end = fetch_.next + q.G.size() * static_cast<Eigen::Index>(sizeof(double));
+  if (!cholesky_lower(q.H, L_, l_end_.data(), &fetch_)) {
+    return ActiveSetOutcome::kNotStrictlyConvex;
+  }
   const double ratio = diagonal_ratio(L_.data(), L_.outerStride(), n_);
   if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
   fast_path_ = try_working_set(hot_start);
@@ -796,6 +825,21 @@ bool DualActiveSet::finish(bool gx_current) {
     if (is_equality(Side{kLower, i}) && !holds(Side{kLower, i})) return false;
   }
   return dual_residual_ <= 10.0 * tolerance_ * scale;
+}
+
+bool DualActiveSet::rows_finite() const {
+  // A non-finite entry makes its row's product with a finite z non-finite (∞·0 is NaN, and a
+  // NaN or ∞ term stays in the sum), so the product the solve ended with has read every entry
+  // of the rows with a finite side; the free rows after them are read here.
+  // A sum of x·0 is 0 for finite x and NaN otherwise: one vectorized reduction (allFinite()
+  // tests the entries one by one).
+  const auto finite = [](const auto& x) { return (x.array() * 0.0).sum() == 0.0; };
+  const QpProblem& q = *q_;
+  if (!finite(x_) || !finite(gx_.head(m_live_))) return false;
+  for (Eigen::Index c = 0; c < q.G.cols(); ++c) {
+    if (!finite(q.G.col(c).segment(m_live_, m_ - m_live_))) return false;
+  }
+  return true;
 }
 
 void DualActiveSet::multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,

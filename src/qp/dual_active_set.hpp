@@ -49,12 +49,20 @@ enum class ActiveSetOutcome {
   kNumericalError,     ///< dependent equalities, a failed check of the result
 };
 
+/// Storage still to be fetched into the cache, a line at a time (DualActiveSet::solve fetches
+/// G's rows ahead of their first use).
+struct LinePrefetch {
+  const char* next = nullptr;
+  const char* end = nullptr;
+};
+
 class DualActiveSet {
  public:
   /// Sizes the workspace for n variables, up to m general rows and p equality rows; allocates
   /// only when a size grows. Forgets the working set when n or p changes.
   void resize(int n, int m, int p);
-  /// Solves `q` (valid input, sized as in resize()). `hot_start`: start from the working set of
+  /// Solves `q` (valid input, sized as in resize(); the entries of G may be unchecked: see
+  /// rows_finite()). `hot_start`: start from the working set of
   /// the last kSolved. `tolerance`: feasibility tolerance per side, times max(1, ‖n‖), and the
   /// relative tolerance of the final stationarity check.
   ActiveSetOutcome solve(const QpProblem& q, bool hot_start, int max_iterations,
@@ -73,6 +81,10 @@ class DualActiveSet {
   /// Multipliers in QpResult's convention (+ upper side, − lower side).
   void multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,
                    Eigen::VectorXd& dual_eq) const;
+  /// After kSolved: whether every entry of G is finite, found without a pass of its own over
+  /// G (the product G·z the solve ended with has read the rows with a finite side). A caller
+  /// that did not check G before solve() checks it in full when this is false.
+  bool rows_finite() const;
   int iterations() const { return iterations_; }
   /// Whether the last solve was answered by its guessed working set's one factorization (the
   /// fast path of a hot start), with no update of the working set.
@@ -109,6 +121,7 @@ class DualActiveSet {
   // sides (the MPC's padding of its soft rows), never violated nor active: most_violated()'s
   // product and checks, finish()'s and the scans for equalities skip them (set by solve()).
   int m_live_ = 0;
+  LinePrefetch fetch_;
   std::vector<int> candidates_;  // m_capacity_ entries: most_violated()'s rows to test in full
   const QpProblem* q_ = nullptr;
   double tolerance_ = 1e-10;

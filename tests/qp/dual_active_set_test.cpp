@@ -413,5 +413,52 @@ TEST(DualActiveSetTest, AViolatedRowIsFoundAtEveryPositionBeforeFreeRows) {
   EXPECT_EQ(r.dual_rows.cwiseAbs().maxCoeff(), 0.0);
 }
 
+// The active set checks G's entries through the product G·z it ends with, not by a pass of its
+// own (QpSolver::solve): a NaN or an infinity anywhere in G must still be rejected, in a row of
+// the hot start's working set (read first by the fast path), in an inactive row, at an entry
+// whose variable is zero at the solution (∞·0), and in the free rows after the others that the
+// solve skips. After each rejection the valid problem is solved as before.
+TEST(DualActiveSetTest, ANonFiniteRowEntryIsRejectedWhereverItIs) {
+  TrackingSequence sequence;
+  QpProblem q = sequence.at(3);
+  const int n = static_cast<int>(q.H.rows()), rows = static_cast<int>(q.G.rows());
+  constexpr int kFreeRows = 6;
+  q.G.conservativeResize(rows + kFreeRows, n);
+  q.lg.conservativeResize(rows + kFreeRows);
+  q.ug.conservativeResize(rows + kFreeRows);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> any(-1.0, 1.0);
+  for (int j = rows; j < rows + kFreeRows; ++j) {
+    for (int c = 0; c < n; ++c) q.G(j, c) = any(rng);
+    q.lg[j] = -kInfinity;
+    q.ug[j] = kInfinity;
+  }
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  const QpResult& first = solver.solve(q);
+  ASSERT_EQ(first.status, QpStatus::kSolved);
+  ASSERT_FALSE(first.fell_back);
+  const Eigen::VectorXd z = first.z, dual_rows = first.dual_rows;
+  int active_rows = 0, zero_variables = 0;
+  for (int j = 0; j < rows + kFreeRows; ++j) {
+    const bool active = dual_rows[j] != 0.0;
+    active_rows += active ? 1 : 0;
+    for (const int c : {j % n, (7 * j + 3) % n}) {
+      zero_variables += z[c] == 0.0 ? 1 : 0;
+      for (const double v : {std::nan(""), kInfinity, -kInfinity}) {
+        ASSERT_EQ(solver.solve(q).status, QpStatus::kSolved);  // hot start: row j in it if active
+        QpProblem bad = q;
+        bad.G(j, c) = v;
+        EXPECT_EQ(solver.solve(bad).status, QpStatus::kInvalidInput)
+            << "row " << j << " column " << c << " value " << v << " active " << active;
+      }
+    }
+  }
+  EXPECT_GT(active_rows, 3);  // the working set's rows were among those spoiled
+  const QpResult& again = solver.solve(q);
+  ASSERT_EQ(again.status, QpStatus::kSolved);
+  EXPECT_LT(inf_norm(again.z - z), 1e-12);
+  RecordProperty("zero_variables", zero_variables);
+}
+
 }  // namespace
 }  // namespace ridgeline::qp
