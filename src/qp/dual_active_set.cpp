@@ -79,8 +79,13 @@ constexpr int kLinesPerColumn = 8;
 // inputs that no output couples, its slacks) costs its blocks, and the triangular solves stop
 // at the same rows. Rows below an envelope are exact zeros either way: only the sign of a zero
 // can differ from the whole-column computation.
+// inverse_diagonal[j] = 1 / L(j, j) (n entries): the column below the pivot is scaled by it,
+// and the substitutions below multiply by it instead of dividing (a division in their chains
+// of dependent operations costs as much as several multiplications; the results differ in
+// round-off only).
 RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, double* L,
                                           Eigen::Index ldl, Eigen::Index n, int* end,
+                                          double* __restrict inverse_diagonal,
                                           LinePrefetch* fetch = nullptr) {
   const auto L_at = [&](Eigen::Index i, Eigen::Index k) { return L[k * ldl + i]; };
   // The largest end[k] of the columns so far; end[] never decreases (each column's end is at
@@ -157,15 +162,19 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
     if (!(pivot > 0.0)) return false;
     const double d = std::sqrt(pivot);
     col[j] = d;
-    for (Eigen::Index i = j + 1; i < last; ++i) col[i] /= d;
+    const double inverse = 1.0 / d;
+    inverse_diagonal[j] = inverse;
+    for (Eigen::Index i = j + 1; i < last; ++i) col[i] *= inverse;
     for (Eigen::Index i = last; i < n; ++i) col[i] = 0.0;
   }
   return true;
 }
 
 // L_ = chol(H) with its envelope (the active set's factor).
-bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L, int* end, LinePrefetch* fetch) {
-  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows(), end, fetch);
+bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L, int* end,
+                    double* inverse_diagonal, LinePrefetch* fetch) {
+  return cholesky_lower(H.data(), H.outerStride(), L.data(), L.outerStride(), H.rows(), end,
+                        inverse_diagonal, fetch);
 }
 
 // max |L(j, j)| / min |L(j, j)| of a Cholesky factor: its square estimates the condition
@@ -199,11 +208,12 @@ inline __attribute__((always_inline)) double dot(const double* __restrict a,
 // down L's columns, contiguous axpys; a zero stays zero without its axpy.
 // With `end` (cholesky_lower's envelope), each axpy stops where its column's nonzeros do.
 RIDGELINE_SIMD_CLONES void forward_substitute(const double* L, Eigen::Index ld, Eigen::Index n,
-                                              double* __restrict y, const int* end) {
+                                              const double* inverse_diagonal, double* __restrict y,
+                                              const int* end) {
   for (Eigen::Index j = 0; j < n; ++j) {
     if (y[j] == 0.0) continue;
     const double* __restrict l = L + j * ld;
-    y[j] /= l[j];
+    y[j] *= inverse_diagonal[j];
     const double a = y[j];
     const Eigen::Index last = end != nullptr ? end[j] : n;
     for (Eigen::Index i = j + 1; i < last; ++i) y[i] -= a * l[i];
@@ -216,13 +226,14 @@ RIDGELINE_SIMD_CLONES void forward_substitute(const double* L, Eigen::Index ld, 
 // nonzeros (or at n): the terms it leaves out are exact zeros, and the ones it keeps go to the
 // same partial sums as over the whole column.
 RIDGELINE_SIMD_CLONES void back_substitute_transposed(const double* L, Eigen::Index ld,
-                                                      Eigen::Index n, double* __restrict x,
-                                                      const int* end) {
+                                                      Eigen::Index n,
+                                                      const double* inverse_diagonal,
+                                                      double* __restrict x, const int* end) {
   for (Eigen::Index j = n - 1; j >= 0; --j) {
     const double* l = L + j * ld;
     Eigen::Index count = n - j - 1;
     if (end != nullptr) count = std::min(count, (end[j] - j - 1 + 3) / 4 * 4);
-    x[j] = (x[j] - dot(l + j + 1, x + j + 1, count)) / l[j];
+    x[j] = (x[j] - dot(l + j + 1, x + j + 1, count)) * inverse_diagonal[j];
   }
 }
 
@@ -240,15 +251,15 @@ RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, 
 // down a column of L (Eigen's blocked triangular solve is sized for larger matrices), stopping
 // at the column's envelope (cholesky_lower).
 RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, const int* end,
-                                               Eigen::MatrixXd& Y, int k,
-                                               LinePrefetch* fetch = nullptr) {
+                                               const double* inverse_diagonal, Eigen::MatrixXd& Y,
+                                               int k, LinePrefetch* fetch = nullptr) {
   const Eigen::Index n = L.rows();
   for (int c = 0; c < k; ++c) {
     fetch_ahead(fetch, kLinesPerColumn);
     double* __restrict y = Y.col(c).data();
     for (Eigen::Index j = 0; j < n; ++j) {
       if (y[j] == 0.0) continue;  // a normal's leading zeros stay zero
-      y[j] /= L(j, j);
+      y[j] *= inverse_diagonal[j];
       const double a = y[j];
       const double* __restrict l = L.col(j).data();
       for (Eigen::Index i = j + 1; i < end[j]; ++i) y[i] -= a * l[i];
@@ -346,7 +357,8 @@ void DualActiveSet::resize(int n, int m, int p) {
     R_.setZero(n, n);
     Y_.setZero(n, n);
     S_.setZero(n, n);
-    for (Eigen::VectorXd* v : {&x_, &u_, &d_, &step_, &r_, &jtf_, &v_, &hx_, &res_, &dual_bounds_}) {
+    for (Eigen::VectorXd* v : {&x_, &u_, &d_, &step_, &r_, &jtf_, &v_, &hx_, &res_, &dual_bounds_,
+                               &l_inverse_diagonal_, &s_inverse_diagonal_}) {
       v->setZero(n);
     }
     dual_eq_.setZero(p);
@@ -614,7 +626,8 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   // arithmetic (about 20 k instructions of the MPC's step).
   const Eigen::Index n = n_;
   jtf_ = q.f;  // g = L⁻¹f
-  forward_substitute(L_.data(), L_.outerStride(), n, jtf_.data(), l_end_.data());
+  const double* l_inverse = l_inverse_diagonal_.data();
+  forward_substitute(L_.data(), L_.outerStride(), n, l_inverse, jtf_.data(), l_end_.data());
   x_ = -jtf_;
   if (k > 0) {
     auto Y = Y_.leftCols(k);
@@ -622,17 +635,18 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       Y.col(j).setZero();
       add_normal(active_[j], 1.0, Y.col(j));
     }
-    solve_lower_columns(L_, l_end_.data(), Y_, k, &fetch_);
+    solve_lower_columns(L_, l_end_.data(), l_inverse, Y_, k, &fetch_);
     // S = YᵀY = NᵀH⁻¹N, factored in place.
     double* S = S_.data();
     const Eigen::Index lds = S_.outerStride();
     gram_lower(Y_, n, k, S, lds, &fetch_);
-    if (!cholesky_lower(S, lds, S, lds, k, nullptr)) return false;
+    double* s_inverse = s_inverse_diagonal_.data();
+    if (!cholesky_lower(S, lds, S, lds, k, nullptr, s_inverse)) return false;
     const double ratio = diagonal_ratio(S, lds, k);
     if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
     for (int j = 0; j < k; ++j) u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
-    forward_substitute(S, lds, k, u_.data(), nullptr);
-    back_substitute_transposed(S, lds, k, u_.data(), nullptr);
+    forward_substitute(S, lds, k, s_inverse, u_.data(), nullptr);
+    back_substitute_transposed(S, lds, k, s_inverse, u_.data(), nullptr);
     const double u_scale = std::max(1.0, u_.head(k).cwiseAbs().maxCoeff());
     for (int j = equalities; j < k; ++j) {
       if (u_[j] < -tolerance_ * u_scale) return false;
@@ -644,7 +658,7 @@ bool DualActiveSet::try_working_set(bool hot_start) {
       for (Eigen::Index i = 0; i < n; ++i) x_[i] += a * y[i];
     }
   }
-  back_substitute_transposed(L_.data(), L_.outerStride(), n, x_.data(), l_end_.data());
+  back_substitute_transposed(L_.data(), L_.outerStride(), n, l_inverse, x_.data(), l_end_.data());
   Side p;
   double violation = 0.0;
   if (most_violated(p, violation)) return false;
@@ -687,7 +701,7 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   // the cache and cost about one instruction a line).
   fetch_.next = reinterpret_cast<const char*>(q.G.data());
   fetch_.end = fetch_.next + q.G.size() * static_cast<Eigen::Index>(sizeof(double));
-  if (!cholesky_lower(q.H, L_, l_end_.data(), &fetch_)) {
+  if (!cholesky_lower(q.H, L_, l_end_.data(), l_inverse_diagonal_.data(), &fetch_)) {
     return ActiveSetOutcome::kNotStrictlyConvex;
   }
   const double ratio = diagonal_ratio(L_.data(), L_.outerStride(), n_);
@@ -698,7 +712,7 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the
   // identity's leading zeros are skipped; Y_ is free once the fast path has failed).
   Y_.setIdentity();
-  solve_lower_columns(L_, l_end_.data(), Y_, n_);
+  solve_lower_columns(L_, l_end_.data(), l_inverse_diagonal_.data(), Y_, n_);
   J_ = Y_.transpose();
   R_.setZero();
 

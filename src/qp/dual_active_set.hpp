@@ -126,6 +126,9 @@ class DualActiveSet {
   const QpProblem* q_ = nullptr;
   double tolerance_ = 1e-10;
   Eigen::MatrixXd L_;  // H = LLᵀ, lower triangle (the upper one is unused)
+  // 1 / L(j, j), and the same of the fast path's factor of S: the substitutions multiply by
+  // them (a division in their chains of dependent operations costs several multiplications).
+  Eigen::VectorXd l_inverse_diagonal_, s_inverse_diagonal_;
   std::vector<int> l_end_;  // L_'s envelope: one past each column's last row that can be nonzero
   Eigen::MatrixXd J_, R_;
   Eigen::VectorXd x_, u_, d_, step_, r_, jtf_, v_, hx_, res_, gx_;
