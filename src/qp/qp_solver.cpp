@@ -99,13 +99,27 @@ RIDGELINE_SIMD_CLONES bool finite_entries(const double* x, Eigen::Index n) {
   return tail == 0.0;
 }
 
-// |H(i,j) − H(j,i)| ≤ tol for every pair. Compared in 4×4 tiles: a tile on or below the
-// diagonal against the transpose of its mirror, both read by columns (contiguous), so the
-// test costs a few instructions per four pairs instead of a strided scalar loop.
-RIDGELINE_SIMD_CLONES bool symmetric_within(const double* h, Eigen::Index n, double tol) {
+// H is finite and symmetric to a relative 1e-10 (the round-off of an assembled H; the solver
+// reads one triangle): |H(i,j) − H(j,i)| ≤ 1e-10·max(1, max |H|) for every pair. One pass over
+// H in 4×4 tiles — a tile on or below the diagonal against the transpose of its mirror, both
+// read by columns (contiguous) — gathers the three things the test needs: a sum of every entry
+// times 0 (0 when all are finite, NaN otherwise), the largest |entry| and the largest
+// |difference| of a pair, so the scale need not be known before the comparison. An
+// overflowing difference (±∞) is larger than any tolerance.
+RIDGELINE_SIMD_CLONES bool finite_and_symmetric(const double* h, Eigen::Index n) {
   const Eigen::Index full = n / 4 * 4;
-  const Vec4 limit = {tol, tol, tol, tol};
-  Mask4 bad = {};
+  const Vec4 zero = {};
+  Vec4 finite = {}, largest = {}, asymmetry = {};
+  const auto gather = [&](Vec4 l, Vec4 u) __attribute__((always_inline)) {
+    finite += l * zero + u * zero;
+    Vec4 d = l - u;
+    make_magnitude(l);
+    make_magnitude(u);
+    make_magnitude(d);
+    largest = l > largest ? l : largest;
+    largest = u > largest ? u : largest;
+    asymmetry = d > asymmetry ? d : asymmetry;
+  };
   for (Eigen::Index jb = 0; jb < full; jb += 4) {
     for (Eigen::Index ib = jb; ib < full; ib += 4) {
       // l_c = H(ib.., jb + c) and u_c = H(jb.., ib + c), named (an array would go through the
@@ -120,18 +134,25 @@ RIDGELINE_SIMD_CLONES bool symmetric_within(const double* h, Eigen::Index n, dou
       std::memcpy(&u2, h + (ib + 2) * n + jb, sizeof u2);
       std::memcpy(&u3, h + (ib + 3) * n + jb, sizeof u3);
       transpose4(u0, u1, u2, u3);  // now u_c = H(jb + c, ib..), the mirror of l_c
-      const Vec4 d0 = l0 - u0, d1 = l1 - u1, d2 = l2 - u2, d3 = l3 - u3;
-      bad |= (d0 > limit) | (d0 < -limit) | (d1 > limit) | (d1 < -limit) | (d2 > limit) |
-             (d2 < -limit) | (d3 > limit) | (d3 < -limit);
+      gather(l0, u0);
+      gather(l1, u1);
+      gather(l2, u2);
+      gather(l3, u3);
     }
   }
-  if ((bad[0] | bad[1] | bad[2] | bad[3]) != 0) return false;
-  for (Eigen::Index i = full; i < n; ++i) {  // the rows below the last whole tile
-    for (Eigen::Index j = 0; j < i; ++j) {
-      if (std::abs(h[j * n + i] - h[i * n + j]) > tol) return false;
+  double sum = (finite[0] + finite[1]) + (finite[2] + finite[3]);
+  double scale = std::max(std::max(largest[0], largest[1]), std::max(largest[2], largest[3]));
+  double worst =
+      std::max(std::max(asymmetry[0], asymmetry[1]), std::max(asymmetry[2], asymmetry[3]));
+  for (Eigen::Index i = full; i < n; ++i) {  // the rows and columns past the last whole tile
+    for (Eigen::Index j = 0; j <= i; ++j) {
+      const double below = h[j * n + i], above = h[i * n + j];
+      sum += below * 0.0 + above * 0.0;
+      scale = std::max(scale, std::max(std::abs(below), std::abs(above)));
+      worst = std::max(worst, std::abs(below - above));
     }
   }
-  return true;
+  return sum == 0.0 && !(worst > 1e-10 * std::max(1.0, scale));
 }
 
 // Prefetches x's storage into the cache, a line at a time (a no-op for lines already there).
@@ -145,25 +166,6 @@ void fetch_into_cache(const Eigen::PlainObjectBase<Derived>& x) {
 template <typename Derived>
 bool all_finite(const Eigen::PlainObjectBase<Derived>& x) {
   return finite_entries(x.data(), x.size());
-}
-
-// The largest |x_i| (0 for none), eight entries a pass: a maximum is the same in any order.
-RIDGELINE_SIMD_CLONES double largest_magnitude(const double* x, Eigen::Index n) {
-  Vec4 m0 = {}, m1 = {};
-  Eigen::Index i = 0;
-  for (; i + 8 <= n; i += 8) {
-    Vec4 v0, v1;
-    std::memcpy(&v0, x + i, sizeof v0);
-    std::memcpy(&v1, x + i + 4, sizeof v1);
-    make_magnitude(v0);
-    make_magnitude(v1);
-    m0 = v0 > m0 ? v0 : m0;
-    m1 = v1 > m1 ? v1 : m1;
-  }
-  const Vec4 m = m0 > m1 ? m0 : m1;
-  double largest = std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
-  for (; i < n; ++i) largest = std::max(largest, std::abs(x[i]));
-  return largest;
 }
 
 // Every pair of sides is usable: neither is NaN, a lower side is below +∞ (kInfiniteBound) and
@@ -243,13 +245,10 @@ bool valid_input(const QpProblem& q, bool check_rows) {
   const Eigen::Index p = q.A.rows();
   if (p > 0 && q.A.cols() != n) return false;
   if (q.b.size() != p) return false;
-  if (!all_finite(q.H) || !all_finite(q.f) || (check_rows && !all_finite(q.G)) ||
-      !all_finite(q.A) || !all_finite(q.b)) {
+  if (!finite_and_symmetric(q.H.data(), n) || !all_finite(q.f) ||
+      (check_rows && !all_finite(q.G)) || !all_finite(q.A) || !all_finite(q.b)) {
     return false;
   }
-  // Symmetric to a relative 1e-10 (round-off of an assembled H); the solver reads one triangle.
-  const double h_scale = std::max(1.0, largest_magnitude(q.H.data(), q.H.size()));
-  if (!symmetric_within(q.H.data(), n, 1e-10 * h_scale)) return false;
   if (q.lb.size() != 0 && q.ub.size() != 0) {
     if (!valid_sides(q.lb, q.ub)) return false;
   } else {
