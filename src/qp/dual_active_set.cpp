@@ -22,6 +22,9 @@ constexpr double kDependence = 1e-10;
 // H is taken as not strictly convex when the squared ratio of the Cholesky factor's extreme
 // diagonal entries, a lower bound on cond(H), exceeds this: J = L⁻ᵀ would lose all accuracy.
 constexpr double kMaxConditionEstimate = 1e14;
+// Corrections of the guessed working set the fast path tries before the dual method (see
+// try_working_set).
+constexpr int kMaxCorrections = 3;
 
 bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
 
@@ -247,14 +250,14 @@ RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, 
   }
 }
 
-// Y[:, 0..k) ← L⁻¹Y by forward substitution, column by column: each step is a contiguous axpy
-// down a column of L (Eigen's blocked triangular solve is sized for larger matrices), stopping
-// at the column's envelope (cholesky_lower).
+// Y[:, first..k) ← L⁻¹Y by forward substitution, column by column: each step is a contiguous
+// axpy down a column of L (Eigen's blocked triangular solve is sized for larger matrices),
+// stopping at the column's envelope (cholesky_lower).
 RIDGELINE_SIMD_CLONES void solve_lower_columns(const Eigen::MatrixXd& L, const int* end,
                                                const double* inverse_diagonal, Eigen::MatrixXd& Y,
-                                               int k, LinePrefetch* fetch = nullptr) {
+                                               int first, int k, LinePrefetch* fetch = nullptr) {
   const Eigen::Index n = L.rows();
-  for (int c = 0; c < k; ++c) {
+  for (int c = first; c < k; ++c) {
     fetch_ahead(fetch, kLinesPerColumn);
     double* __restrict y = Y.col(c).data();
     for (Eigen::Index j = 0; j < n; ++j) {
@@ -602,9 +605,19 @@ bool DualActiveSet::usable(Side c) const {
 // feasible and its multipliers are nonnegative, and nothing else is needed. It is computed by
 // the range-space (Schur complement) method: with H = LLᵀ, Y = L⁻¹N, g = L⁻¹f,
 //   (YᵀY) u = b + Yᵀg,   z = L⁻ᵀ(Yu − g),
-// for n²q + nq²/2 flops against the n³/3 of J = L⁻ᵀ and the q reflections (1) needs. When a
-// check fails (a side violated, a multiplier negative, the sides nearly dependent) the solve
-// goes on by the dual method from the same working set.
+// for n²q + nq²/2 flops against the n³/3 of J = L⁻ᵀ and the q reflections (1) needs.
+// When a check fails, the guess is corrected and solved again, kMaxCorrections times at most:
+// the inequality with the most negative multiplier leaves the working set, or else the most
+// violated side joins it (an MPC's working set mostly gains or loses one side from a period to
+// the next). A correction computes Y's column of the side that joins (the others are kept)
+// and S again, a fraction of what the dual method's start costs (J = L⁻ᵀ and a reflection a
+// side) while the working set holds at most n/2 sides: S costs k²n/2 flops, and the
+// corrections that fail (the solves that need several changes of the working set, the slowest
+// ones) would add it to the dual method's time (gen_mpc_qps.py's p99 rose by 15 % without
+// this limit). A point is accepted only by the checks of an optimum (every side met, every
+// inequality multiplier nonnegative, stationarity), so a correction that does not lead to the
+// optimum costs time, never the answer: when the corrections run out or the sides are nearly
+// dependent, the dual method starts from the previous working set, as without them.
 bool DualActiveSet::try_working_set(bool hot_start) {
   const QpProblem& q = *q_;
   count_ = 0;
@@ -620,7 +633,6 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   for (int k = 0; hot_start && k < saved_count_ && count_ < n_; ++k) {
     if (usable(saved_[k])) active_[count_++] = saved_[k];
   }
-  const int k = count_;
   // The small dense kernels below are hand-written: at n ≈ 33 and a working set of a few
   // sides, Eigen's blocked triangular solves, rank update and LLT cost several times their
   // arithmetic (about 20 k instructions of the MPC's step).
@@ -628,41 +640,66 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   jtf_ = q.f;  // g = L⁻¹f
   const double* l_inverse = l_inverse_diagonal_.data();
   forward_substitute(L_.data(), L_.outerStride(), n, l_inverse, jtf_.data(), l_end_.data());
-  x_ = -jtf_;
-  if (k > 0) {
-    auto Y = Y_.leftCols(k);
-    for (int j = 0; j < k; ++j) {
-      Y.col(j).setZero();
-      add_normal(active_[j], 1.0, Y.col(j));
+  int computed = 0;  // the columns of Y computed: those of active_[0, computed)
+  for (int correction = 0;; ++correction) {
+    const int k = count_;
+    x_ = -jtf_;
+    if (k > 0) {
+      for (int j = computed; j < k; ++j) {
+        Y_.col(j).setZero();
+        add_normal(active_[j], 1.0, Y_.col(j));
+      }
+      solve_lower_columns(L_, l_end_.data(), l_inverse, Y_, computed, k, &fetch_);
+      computed = k;
+      // S = YᵀY = NᵀH⁻¹N, factored in place.
+      double* S = S_.data();
+      const Eigen::Index lds = S_.outerStride();
+      gram_lower(Y_, n, k, S, lds, &fetch_);
+      double* s_inverse = s_inverse_diagonal_.data();
+      if (!cholesky_lower(S, lds, S, lds, k, nullptr, s_inverse)) return false;
+      const double ratio = diagonal_ratio(S, lds, k);
+      if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
+      for (int j = 0; j < k; ++j) {
+        u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
+      }
+      forward_substitute(S, lds, k, s_inverse, u_.data(), nullptr);
+      back_substitute_transposed(S, lds, k, s_inverse, u_.data(), nullptr);
+      const double u_scale = std::max(1.0, u_.head(k).cwiseAbs().maxCoeff());
+      int negative = -1;
+      for (int j = equalities; j < k; ++j) {
+        if (u_[j] < -tolerance_ * u_scale && (negative < 0 || u_[j] < u_[negative])) {
+          negative = j;
+        }
+      }
+      if (negative >= 0) {
+        if (correction == kMaxCorrections || 2 * k > n_) return false;
+        // The last side takes its place (the order of the working set is immaterial).
+        active_[negative] = active_[k - 1];
+        Y_.col(negative) = Y_.col(k - 1);
+        computed = --count_;
+        ++iterations_;
+        continue;
+      }
+      for (int j = equalities; j < k; ++j) u_[j] = std::max(u_[j], 0.0);
+      for (int j = 0; j < k; ++j) {  // x += Y u
+        const double a = u_[j];
+        const double* y = Y_.col(j).data();
+        for (Eigen::Index i = 0; i < n; ++i) x_[i] += a * y[i];
+      }
     }
-    solve_lower_columns(L_, l_end_.data(), l_inverse, Y_, k, &fetch_);
-    // S = YᵀY = NᵀH⁻¹N, factored in place.
-    double* S = S_.data();
-    const Eigen::Index lds = S_.outerStride();
-    gram_lower(Y_, n, k, S, lds, &fetch_);
-    double* s_inverse = s_inverse_diagonal_.data();
-    if (!cholesky_lower(S, lds, S, lds, k, nullptr, s_inverse)) return false;
-    const double ratio = diagonal_ratio(S, lds, k);
-    if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
-    for (int j = 0; j < k; ++j) u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
-    forward_substitute(S, lds, k, s_inverse, u_.data(), nullptr);
-    back_substitute_transposed(S, lds, k, s_inverse, u_.data(), nullptr);
-    const double u_scale = std::max(1.0, u_.head(k).cwiseAbs().maxCoeff());
-    for (int j = equalities; j < k; ++j) {
-      if (u_[j] < -tolerance_ * u_scale) return false;
-      u_[j] = std::max(u_[j], 0.0);
-    }
-    for (int j = 0; j < k; ++j) {  // x += Y u
-      const double a = u_[j];
-      const double* y = Y_.col(j).data();
-      for (Eigen::Index i = 0; i < n; ++i) x_[i] += a * y[i];
-    }
+    back_substitute_transposed(L_.data(), L_.outerStride(), n, l_inverse, x_.data(), l_end_.data());
+    Side p;
+    double violation = 0.0;
+    if (!most_violated(p, violation)) break;
+    if (correction == kMaxCorrections || 2 * (count_ + 1) > n_) return false;
+    active_[count_++] = p;
+    ++iterations_;
   }
-  back_substitute_transposed(L_.data(), L_.outerStride(), n, l_inverse, x_.data(), l_end_.data());
-  Side p;
-  double violation = 0.0;
-  if (most_violated(p, violation)) return false;
-  return finish(true);
+  if (!finish(true)) return false;
+  fast_path_ = true;
+  saved_count_ = 0;  // the next hot start's guess: this working set's inequalities
+  for (int j = equalities; j < count_; ++j) saved_[saved_count_++] = active_[j];
+  return true;
 }
 
 // w = (−r on the working set, 1 on p): Σ wᵢnᵢ should vanish and wᵀb be positive. For any z,
@@ -706,13 +743,13 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   }
   const double ratio = diagonal_ratio(L_.data(), L_.outerStride(), n_);
   if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
-  fast_path_ = try_working_set(hot_start);
-  if (fast_path_) return ActiveSetOutcome::kSolved;
+  if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
+  iterations_ = 0;  // the corrections tried are not the dual method's
   count_ = 0;
   // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the
   // identity's leading zeros are skipped; Y_ is free once the fast path has failed).
   Y_.setIdentity();
-  solve_lower_columns(L_, l_end_.data(), l_inverse_diagonal_.data(), Y_, n_);
+  solve_lower_columns(L_, l_end_.data(), l_inverse_diagonal_.data(), Y_, 0, n_);
   J_ = Y_.transpose();
   R_.setZero();
 

@@ -25,7 +25,9 @@
 // once; (1) gives its minimizer; constraints with negative multipliers are dropped one at a time
 // (most negative first) until u ≥ 0, which is a valid dual-feasible start. On an MPC sequence
 // the working set changes little from one period to the next, so a solve is one factorization
-// of H, q rank-one updates and a few iterations. The factor of H stops each column at its
+// of H, q rank-one updates and a few iterations. Before that, a fast path tries the guessed
+// working set by the range-space method and corrects it by a side or two (see
+// try_working_set); it answers most hot starts. The factor of H stops each column at its
 // envelope (the last row that can be nonzero), so a block-diagonal H, such as an MPC's with
 // inputs no output couples and its slacks, costs its blocks (see cholesky_lower).
 //
@@ -86,8 +88,9 @@ class DualActiveSet {
   /// that did not check G before solve() checks it in full when this is false.
   bool rows_finite() const;
   int iterations() const { return iterations_; }
-  /// Whether the last solve was answered by its guessed working set's one factorization (the
-  /// fast path of a hot start), with no update of the working set.
+  /// Whether the last solve was answered by the fast path of a hot start (its guessed working
+  /// set's range-space solve, corrected by iterations() updates at most a few times), not by
+  /// the dual method.
   bool took_fast_path() const { return fast_path_; }
   int working_set_size() const { return count_; }
   double objective() const { return objective_; }

@@ -460,5 +460,53 @@ TEST(DualActiveSetTest, ANonFiniteRowEntryIsRejectedWhereverItIs) {
   RecordProperty("zero_variables", zero_variables);
 }
 
+// The fast path corrects a guessed working set that is one side off: a side that became
+// violated joins it, a side whose multiplier turned negative leaves it, and the range-space
+// solve is repeated (one update each, no dual method). z = clamp(target, −∞, 1) on a box of
+// rows z_i ≤ 1 and H = 2I: the working set is the rows whose target exceeds 1.
+TEST(DualActiveSetTest, AGuessOneSideOffIsCorrectedByTheFastPath) {
+  const int n = 8;
+  QpProblem q;
+  q.H = 2.0 * Eigen::MatrixXd::Identity(n, n);
+  q.lb = Eigen::VectorXd::Constant(n, -10.0);
+  q.ub = Eigen::VectorXd::Constant(n, 10.0);
+  q.G = Eigen::MatrixXd::Identity(n, n);
+  q.lg = Eigen::VectorXd::Constant(n, -kInfinity);
+  q.ug = Eigen::VectorXd::Constant(n, 1.0);
+  q.A.resize(0, n);
+  DualActiveSet solver;
+  solver.resize(n, n, 0);
+  // (target, the working set's size, updates of the hot-started solve)
+  struct Case {
+    Eigen::VectorXd target;
+    int active, updates;
+  };
+  Eigen::VectorXd t(n);
+  std::vector<Case> cases;
+  t << 2.0, 3.0, 0.5, 0.2, 0.1, 0.0, -1.0, 0.3;
+  cases.push_back({t, 2, -1});  // the cold start
+  t[2] = 1.5;                   // row 2 becomes violated: it joins
+  cases.push_back({t, 3, 1});
+  t[0] = 0.5;  // row 0's multiplier turns negative: it leaves
+  cases.push_back({t, 2, 1});
+  t[0] = 0.4;  // the same working set: the fast path as it is
+  cases.push_back({t, 2, 0});
+  t[3] = 1.2;  // one joins and one leaves (row 1's target drops below 1)
+  t[1] = 0.9;
+  cases.push_back({t, 2, 2});
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    SCOPED_TRACE(c);
+    q.f = -2.0 * cases[c].target;
+    ASSERT_EQ(solver.solve(q, c > 0, 100, 1e-10), ActiveSetOutcome::kSolved);
+    const Eigen::VectorXd expected = cases[c].target.cwiseMin(1.0);
+    EXPECT_LT(inf_norm(solver.z() - expected), 1e-12);
+    EXPECT_EQ(solver.working_set_size(), cases[c].active);
+    if (cases[c].updates >= 0) {
+      EXPECT_EQ(solver.iterations(), cases[c].updates);
+      EXPECT_TRUE(solver.took_fast_path());  // no dual method
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ridgeline::qp
