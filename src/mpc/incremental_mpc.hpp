@@ -361,6 +361,7 @@ class IncrementalMpc {
   // Every side of the move box is finite and no lower side is above its upper one (an inverted
   // box is not rejected before the QP; assemble_qp, when the box changed).
   bool box_regular_ = false;
+  bool box_symmetric_ = false;  // and every lower side is the upper one negated (the UAV's)
   bool h_valid_ = false;  // H was written in full once with the present groups
   bool c_changed_ = true;
   bool rows_valid_ = false;

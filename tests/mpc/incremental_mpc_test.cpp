@@ -742,84 +742,90 @@ TEST(IncrementalMpcPrediction, SolutionPredictionRoundsEachProduct) {
 // (half of them farther than the moves can reach in the horizon, some in reach, some
 // violated by the free response) over a sequence of steps whose rows come and go, so that the
 // hot start also meets rows that moved in the QP.
+// The move box is the UAV's, symmetric (each row's range over it is one sum), and shifted
+// (the general ends, a minimum and a maximum a term).
 TEST(IncrementalMpcSoftRows, RedundantRowsLeftOutChangeNothing) {
-  std::mt19937 rng(5);
-  const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 40, nc = 10;
-  IncrementalMpcOptions o = uav_options(np, nc);
-  o.qp_settings = {.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};  // the tracker's
-  IncrementalMpcOptions all_rows = o;
-  all_rows.drop_redundant_soft_rows = false;
-  const IncrementalMpcDims dims{ns, nu, ny, 3, 3 * np, 3};
-  IncrementalMpc dropping(dims, o), keeping(dims, all_rows);
-  std::uniform_real_distribution<double> heading(-kPi, kPi), unit(0.0, 1.0);
-  int added = 0, carried = 0, active_rows = 0, exact_steps = 0;
-  for (int step = 0; step < 30; ++step) {
-    const std::uint32_t seed = rng();
-    for (IncrementalMpc* mpc : {&dropping, &keeping}) {
-      std::mt19937 data_rng(seed);
-      IncrementalMpcData& d = mpc->data();
-      const double psi0 = heading(data_rng);
-      set_uav_plant(d, psi0, 0.02, 0.0);
-      // Flying at 12 m/s along ψ0, the reference a few metres off the straight path.
-      d.delta_state = random_matrix(data_rng, ns, 1, 0.02);
-      d.delta_state[0] += 1.2 * std::cos(psi0);
-      d.delta_state[1] += 1.2 * std::sin(psi0);
-      d.output = random_matrix(data_rng, ny, 1, 50.0);
-      d.state = random_matrix(data_rng, ns, 1, 50.0);
-      d.reference = random_matrix(data_rng, ny, np, 3.0);
-      for (int j = 0; j < np; ++j) {
-        d.reference.col(j) += d.output + (j + 1) * d.delta_state.head<3>();
-      }
-      d.disturbance_delta.setZero();
-      d.state_offset.setZero();
-      mpc->build_prediction();
-      d.clear_soft_rows();
-      // Rows in (group, source, step) order; each source's rows start at a step that moves
-      // from one solve to the next.
-      for (int group = 0; group < 3; ++group) {
-        for (int source = 0; source < 2; ++source) {
-          const int first = static_cast<int>(unit(data_rng) * np / 2);
-          for (int j = first; j < np; j += 2) {
-            Vec3 a = random_matrix(data_rng, 3, 1, 1.0);
-            a.normalize();
-            const double free = a.dot(mpc->free_response().segment<3>(j * ny));
-            // From 1 m violated to 40 m clear of the free response.
-            const double clear = -1.0 + 41.0 * unit(data_rng);
-            d.add_soft_row(j, a, free - clear, group, source);
+  for (const bool symmetric : {true, false}) {
+    SCOPED_TRACE(symmetric ? "symmetric move box" : "shifted move box");
+    std::mt19937 rng(5);
+    const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 40, nc = 10;
+    IncrementalMpcOptions o = uav_options(np, nc);
+    if (!symmetric) o.move_min *= 0.5;                                        // [−h/2, h]
+    o.qp_settings = {.tolerance = 1e-7, .method = qp::QpMethod::kActiveSet};  // the tracker's
+    IncrementalMpcOptions all_rows = o;
+    all_rows.drop_redundant_soft_rows = false;
+    const IncrementalMpcDims dims{ns, nu, ny, 3, 3 * np, 3};
+    IncrementalMpc dropping(dims, o), keeping(dims, all_rows);
+    std::uniform_real_distribution<double> heading(-kPi, kPi), unit(0.0, 1.0);
+    int added = 0, carried = 0, active_rows = 0, exact_steps = 0;
+    for (int step = 0; step < 30; ++step) {
+      const std::uint32_t seed = rng();
+      for (IncrementalMpc* mpc : {&dropping, &keeping}) {
+        std::mt19937 data_rng(seed);
+        IncrementalMpcData& d = mpc->data();
+        const double psi0 = heading(data_rng);
+        set_uav_plant(d, psi0, 0.02, 0.0);
+        // Flying at 12 m/s along ψ0, the reference a few metres off the straight path.
+        d.delta_state = random_matrix(data_rng, ns, 1, 0.02);
+        d.delta_state[0] += 1.2 * std::cos(psi0);
+        d.delta_state[1] += 1.2 * std::sin(psi0);
+        d.output = random_matrix(data_rng, ny, 1, 50.0);
+        d.state = random_matrix(data_rng, ns, 1, 50.0);
+        d.reference = random_matrix(data_rng, ny, np, 3.0);
+        for (int j = 0; j < np; ++j) {
+          d.reference.col(j) += d.output + (j + 1) * d.delta_state.head<3>();
+        }
+        d.disturbance_delta.setZero();
+        d.state_offset.setZero();
+        mpc->build_prediction();
+        d.clear_soft_rows();
+        // Rows in (group, source, step) order; each source's rows start at a step that moves
+        // from one solve to the next.
+        for (int group = 0; group < 3; ++group) {
+          for (int source = 0; source < 2; ++source) {
+            const int first = static_cast<int>(unit(data_rng) * np / 2);
+            for (int j = first; j < np; j += 2) {
+              Vec3 a = random_matrix(data_rng, 3, 1, 1.0);
+              a.normalize();
+              const double free = a.dot(mpc->free_response().segment<3>(j * ny));
+              // From 1 m violated to 40 m clear of the free response.
+              const double clear = -1.0 + 41.0 * unit(data_rng);
+              d.add_soft_row(j, a, free - clear, group, source);
+            }
           }
         }
+        mpc->solve();
       }
-      mpc->solve();
+      const IncrementalMpcResult& a = dropping.last_result();
+      const IncrementalMpcResult& b = keeping.last_result();
+      SCOPED_TRACE(step);
+      ASSERT_TRUE(a.solved()) << qp::to_string(a.qp_status);
+      ASSERT_TRUE(b.solved()) << qp::to_string(b.qp_status);
+      EXPECT_EQ(b.soft_rows_in_qp, keeping.data().soft_row_count);
+      // The active set's answers are exact to round-off; where it handed a problem to the
+      // interior point (some steps with violated rows), the answers agree to its tolerance.
+      const bool exact = !dropping.qp_result().fell_back && !keeping.qp_result().fell_back;
+      const double tolerance = exact ? 1e-9 : 1e-5;
+      exact_steps += exact ? 1 : 0;
+      EXPECT_LE((a.moves - b.moves).cwiseAbs().maxCoeff(), tolerance);
+      EXPECT_LE((a.slack - b.slack).cwiseAbs().maxCoeff(), tolerance);
+      EXPECT_NEAR(a.cost, b.cost, tolerance * std::max(1.0, std::abs(b.cost)));
+      // Every row, carried or not, holds at the solution up to its slack.
+      const IncrementalMpcData& d = dropping.data();
+      for (int r = 0; r < d.soft_row_count; ++r) {
+        const double lhs = d.soft_normal.col(r).dot(a.predicted_outputs.col(d.soft_step[r]));
+        EXPECT_GE(lhs + a.slack[d.soft_group[r]], d.soft_bound[r] - 1e-6);
+        if (lhs < d.soft_bound[r] + 1e-6) ++active_rows;
+      }
+      added += d.soft_row_count;
+      carried += a.soft_rows_in_qp;
     }
-    const IncrementalMpcResult& a = dropping.last_result();
-    const IncrementalMpcResult& b = keeping.last_result();
-    SCOPED_TRACE(step);
-    ASSERT_TRUE(a.solved()) << qp::to_string(a.qp_status);
-    ASSERT_TRUE(b.solved()) << qp::to_string(b.qp_status);
-    EXPECT_EQ(b.soft_rows_in_qp, keeping.data().soft_row_count);
-    // The active set's answers are exact to round-off; where it handed a problem to the
-    // interior point (some steps with violated rows), the answers agree to its tolerance.
-    const bool exact = !dropping.qp_result().fell_back && !keeping.qp_result().fell_back;
-    const double tolerance = exact ? 1e-9 : 1e-5;
-    exact_steps += exact ? 1 : 0;
-    EXPECT_LE((a.moves - b.moves).cwiseAbs().maxCoeff(), tolerance);
-    EXPECT_LE((a.slack - b.slack).cwiseAbs().maxCoeff(), tolerance);
-    EXPECT_NEAR(a.cost, b.cost, tolerance * std::max(1.0, std::abs(b.cost)));
-    // Every row, carried or not, holds at the solution up to its slack.
-    const IncrementalMpcData& d = dropping.data();
-    for (int r = 0; r < d.soft_row_count; ++r) {
-      const double lhs = d.soft_normal.col(r).dot(a.predicted_outputs.col(d.soft_step[r]));
-      EXPECT_GE(lhs + a.slack[d.soft_group[r]], d.soft_bound[r] - 1e-6);
-      if (lhs < d.soft_bound[r] + 1e-6) ++active_rows;
-    }
-    added += d.soft_row_count;
-    carried += a.soft_rows_in_qp;
+    // Both kinds occur: rows left out, and rows carried of which some bind.
+    EXPECT_LT(carried, added / 2);
+    EXPECT_GT(carried, 0);
+    EXPECT_GT(active_rows, 0);
+    EXPECT_GE(exact_steps, 15);
   }
-  // Both kinds occur: rows left out, and rows carried of which some bind.
-  EXPECT_LT(carried, added / 2);
-  EXPECT_GT(carried, 0);
-  EXPECT_GT(active_rows, 0);
-  EXPECT_GE(exact_steps, 15);
 }
 
 // A move box with infinite sides (the climb's here) still leaves out a row no move can reach:
