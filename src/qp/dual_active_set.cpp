@@ -57,13 +57,14 @@ constexpr int kCacheLine = 64;  // bytes (x86-64 and the usual arm64 cores)
 // their arithmetic instead of stalling the product G·z that first reads the rows.
 inline __attribute__((always_inline)) void fetch_ahead(LinePrefetch* fetch, int lines) {
   if (fetch == nullptr) return;
-  for (int k = 0; k < lines && fetch->next < fetch->end; ++k, fetch->next += kCacheLine) {
-    __builtin_prefetch(fetch->next, 0, 3);
+  for (int k = 0; k < lines && fetch->next < fetch->bytes; ++k, fetch->next += kCacheLine) {
+    __builtin_prefetch(fetch->base + fetch->next, 0, 3);
   }
 }
-// Lines fetched per column of a factorization or triangular solve: enough that G (about 45 KB
-// in gen_mpc_qps.py's default instances) is mostly in the cache by the product G·z, few enough
-// that the outstanding fetches do not stall the column's arithmetic.
+// Lines fetched per column of a factorization or triangular solve: at n = 30 the factor of H
+// fetches 15 KB of the default instances' 45 KB of G, the working set's solves more, and the
+// product reads the rest as it goes; more lines a column stall the column's arithmetic on
+// outstanding fetches (measured: 8 and 12 lines best, 24 no better than none).
 constexpr int kLinesPerColumn = 8;
 
 // H = LLᵀ, reading H's lower triangle; false unless every pivot is positive. Left-looking
@@ -223,7 +224,7 @@ RIDGELINE_SIMD_CLONES void forward_substitute(const double* L, Eigen::Index ld, 
   }
 }
 
-// x ← L⁻ᵀx: x_j = (x_j − Σ_{i>j} L(i, j)·x_i) / L(j, j) from the last j, each sum a dot
+// x ← L⁻ᵀx: x_j = (x_j − Σ_{i>j} L(i, j)·x_i)·(1 / L(j, j)) from the last j, each sum a dot
 // product down a column of L.
 // With `end`, each dot product stops at the first whole four of terms past its column's
 // nonzeros (or at n): the terms it leaves out are exact zeros, and the ones it keeps go to the
@@ -611,16 +612,19 @@ bool DualActiveSet::usable(Side c) const {
 // violated side joins it (an MPC's working set mostly gains or loses one side from a period to
 // the next). A correction computes Y's column of the side that joins (the others are kept)
 // and S again, a fraction of what the dual method's start costs (J = L⁻ᵀ and a reflection a
-// side) while the working set holds at most n/2 sides: S costs k²n/2 flops, and the
-// corrections that fail (the solves that need several changes of the working set, the slowest
-// ones) would add it to the dual method's time (gen_mpc_qps.py's p99 rose by 15 % without
-// this limit). A point is accepted only by the checks of an optimum (every side met, every
-// inequality multiplier nonnegative, stationarity), so a correction that does not lead to the
-// optimum costs time, never the answer: when the corrections run out or the sides are nearly
-// dependent, the dual method starts from the previous working set, as without them.
-bool DualActiveSet::try_working_set(bool hot_start) {
+// side), while the working set holds at most n/2 sides and within max_iterations (each
+// correction counts as one). A correction that fails adds its cost (S formed again, k²n/2
+// flops, and the product G·z) to the dual method's, and they fail most in the solves whose
+// working set changes by several sides, the slowest: without the limit gen_mpc_qps.py's p99
+// rose by 15 % (limits n/3, n/2.5, n/2 and none measured; n/2 kept). A point is accepted only by
+// the checks of an optimum (every side met, every inequality multiplier nonnegative, stationarity),
+// so a correction that does not lead to the optimum costs time, never the answer: when the
+// corrections run out or the sides are nearly dependent, the dual method starts from the previous
+// working set, as without them.
+bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
   const QpProblem& q = *q_;
   count_ = 0;
+  if (p_ > n_) return false;  // more equality rows than variables: the dual method sorts them
   for (int k = 0; k < p_; ++k) active_[count_++] = Side{kEqualityRow, k};
   for (int j = 0; j < m_live_ && count_ < n_; ++j) {
     if (is_equality(Side{kRowLower, j})) active_[count_++] = Side{kRowLower, j};
@@ -628,7 +632,6 @@ bool DualActiveSet::try_working_set(bool hot_start) {
   for (int i = 0; i < n_ && q.lb.size() != 0 && count_ < n_; ++i) {
     if (is_equality(Side{kLower, i})) active_[count_++] = Side{kLower, i};
   }
-  if (count_ > n_) return false;
   const int equalities = count_;
   for (int k = 0; hot_start && k < saved_count_ && count_ < n_; ++k) {
     if (usable(saved_[k])) active_[count_++] = saved_[k];
@@ -672,7 +675,9 @@ bool DualActiveSet::try_working_set(bool hot_start) {
         }
       }
       if (negative >= 0) {
-        if (correction == kMaxCorrections || 2 * k > n_) return false;
+        if (correction == kMaxCorrections || 2 * k > n_ || iterations_ >= max_iterations) {
+          return false;
+        }
         // The last side takes its place (the order of the working set is immaterial).
         active_[negative] = active_[k - 1];
         Y_.col(negative) = Y_.col(k - 1);
@@ -691,7 +696,9 @@ bool DualActiveSet::try_working_set(bool hot_start) {
     Side p;
     double violation = 0.0;
     if (!most_violated(p, violation)) break;
-    if (correction == kMaxCorrections || 2 * (count_ + 1) > n_) return false;
+    if (correction == kMaxCorrections || 2 * (count_ + 1) > n_ || iterations_ >= max_iterations) {
+      return false;
+    }
     active_[count_++] = p;
     ++iterations_;
   }
@@ -732,18 +739,20 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
   iterations_ = 0;
   count_ = 0;
   fast_path_ = false;
-  // The general rows are first read whole by the product G·z, after the factorizations; a
-  // caller's rows that are not in the cache (a stored sequence of problems) are fetched during
-  // them, a few lines a column (for rows the caller has just written, the fetches find them in
-  // the cache and cost about one instruction a line).
-  fetch_.next = reinterpret_cast<const char*>(q.G.data());
-  fetch_.end = fetch_.next + q.G.size() * static_cast<Eigen::Index>(sizeof(double));
+  // The general rows are read whole first by the product G·z, after the factorizations (the
+  // hot start's rows, a few lines of each column, before); a caller's rows that are not in the
+  // cache (a stored sequence of problems) are fetched during them, a few lines a column (for
+  // rows the caller has just written, the fetches find them in the cache and cost about one
+  // instruction a line).
+  fetch_.base = reinterpret_cast<const char*>(q.G.data());
+  fetch_.next = 0;
+  fetch_.bytes = static_cast<std::size_t>(q.G.size()) * sizeof(double);
   if (!cholesky_lower(q.H, L_, l_end_.data(), l_inverse_diagonal_.data(), &fetch_)) {
     return ActiveSetOutcome::kNotStrictlyConvex;
   }
   const double ratio = diagonal_ratio(L_.data(), L_.outerStride(), n_);
   if (!(ratio * ratio < kMaxConditionEstimate)) return ActiveSetOutcome::kNotStrictlyConvex;
-  if (try_working_set(hot_start)) return ActiveSetOutcome::kSolved;
+  if (try_working_set(hot_start, max_iterations)) return ActiveSetOutcome::kSolved;
   iterations_ = 0;  // the corrections tried are not the dual method's
   count_ = 0;
   // J = L⁻ᵀ, the transpose of L⁻¹ = L⁻¹I by the forward substitution of the fast path (the

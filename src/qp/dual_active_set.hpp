@@ -26,7 +26,7 @@
 // (most negative first) until u ≥ 0, which is a valid dual-feasible start. On an MPC sequence
 // the working set changes little from one period to the next, so a solve is one factorization
 // of H, q rank-one updates and a few iterations. Before that, a fast path tries the guessed
-// working set by the range-space method and corrects it by a side or two (see
+// working set by the range-space method and corrects it by up to three sides (see
 // try_working_set); it answers most hot starts. The factor of H stops each column at its
 // envelope (the last row that can be nonzero), so a block-diagonal H, such as an MPC's with
 // inputs no output couples and its slacks, costs its blocks (see cholesky_lower).
@@ -34,10 +34,10 @@
 // All storage is sized by resize(); solve() allocates nothing.
 #pragma once
 
-#include <vector>
-
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <cstddef>
+#include <vector>
 
 #include "qp/qp_solver.hpp"
 
@@ -54,8 +54,8 @@ enum class ActiveSetOutcome {
 /// Storage still to be fetched into the cache, a line at a time (DualActiveSet::solve fetches
 /// G's rows ahead of their first use).
 struct LinePrefetch {
-  const char* next = nullptr;
-  const char* end = nullptr;
+  const char* base = nullptr;
+  std::size_t next = 0, bytes = 0;  // offsets from base: the next line's, and the end
 };
 
 class DualActiveSet {
@@ -83,14 +83,15 @@ class DualActiveSet {
   /// Multipliers in QpResult's convention (+ upper side, − lower side).
   void multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,
                    Eigen::VectorXd& dual_eq) const;
-  /// After kSolved: whether every entry of G is finite, found without a pass of its own over
-  /// G (the product G·z the solve ended with has read the rows with a finite side). A caller
-  /// that did not check G before solve() checks it in full when this is false.
+  /// After kSolved: true only if every entry of G is finite, found without a pass of its own
+  /// over G (the product G·z the solve ended with has read the rows with a finite side). False
+  /// also when that product overflowed on finite rows: a caller that did not check G before
+  /// solve() checks it in full when this is false.
   bool rows_finite() const;
   int iterations() const { return iterations_; }
-  /// Whether the last solve was answered by the fast path of a hot start (its guessed working
-  /// set's range-space solve, corrected by iterations() updates at most a few times), not by
-  /// the dual method.
+  /// Whether the last solve was answered by the fast path (the range-space solve of the
+  /// guessed working set — the last solve's on a hot start, the equalities alone on a cold
+  /// one — corrected by iterations() updates, three at most), not by the dual method.
   bool took_fast_path() const { return fast_path_; }
   int working_set_size() const { return count_; }
   double objective() const { return objective_; }
@@ -117,7 +118,7 @@ class DualActiveSet {
   bool most_violated(Side& c, double& violation);
   bool check_certificate(Side p);
   bool finish(bool gx_current);  // objective, residuals, the stationarity check
-  bool try_working_set(bool hot_start);  // the fast path (see the implementation)
+  bool try_working_set(bool hot_start, int max_iterations);  // the fast path (see the .cpp)
 
   int n_ = -1, m_ = -1, p_ = -1, m_capacity_ = -1;
   // Rows [0, m_live_) hold every row with a finite side: the rows after them are free on both

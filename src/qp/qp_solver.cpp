@@ -46,13 +46,13 @@
 // warm_start_max_iterations restarts cold.
 #include "qp/qp_solver.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
-
-#include <Eigen/Cholesky>
 
 #include "core/simd_clones.hpp"
 #include "qp/dual_active_set.hpp"
@@ -159,8 +159,8 @@ RIDGELINE_SIMD_CLONES bool finite_and_symmetric(const double* h, Eigen::Index n)
 template <typename Derived>
 void fetch_into_cache(const Eigen::PlainObjectBase<Derived>& x) {
   const char* p = reinterpret_cast<const char*>(x.data());
-  const char* end = p + x.size() * static_cast<Eigen::Index>(sizeof(typename Derived::Scalar));
-  for (; p < end; p += 64) __builtin_prefetch(p, 0, 3);
+  const std::size_t bytes = static_cast<std::size_t>(x.size()) * sizeof(typename Derived::Scalar);
+  for (std::size_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(p + offset, 0, 3);
 }
 
 template <typename Derived>
@@ -1211,7 +1211,9 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
   if (!valid) {
     r.status = QpStatus::kInvalidInput;
     r.objective = r.primal_residual = r.dual_residual = r.duality_gap = 0.0;
-    if (active_set) workspace_->active_set.forget();  // its working set came from invalid rows
+    r.iterations = r.active_set_iterations = 0;
+    // A solve that ran on rows found invalid after it leaves no working set to start from.
+    if (answered) workspace_->active_set.forget();
   } else if (answered) {
     // Answered by the active-set method.
   } else {

@@ -79,8 +79,9 @@ struct QpSettings {
   /// up to round-off instead of ~√μ-accurate on degenerate problems (as OSQP's polishing).
   bool polish = true;
   QpMethod method = QpMethod::kInteriorPoint;
-  /// kActiveSet: sides added or dropped before falling back to the interior point (a bounded
-  /// worst case); 0 means 2·(n + 10).
+  /// kActiveSet: sides added or dropped (by the dual method, or by the fast path's
+  /// corrections of its guessed working set) before falling back to the interior point (a
+  /// bounded worst case); 0 means 2·(n + 10).
   int active_set_max_iterations = 0;
 };
 

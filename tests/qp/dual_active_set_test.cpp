@@ -458,6 +458,46 @@ TEST(DualActiveSetTest, ANonFiniteRowEntryIsRejectedWhereverItIs) {
   ASSERT_EQ(again.status, QpStatus::kSolved);
   EXPECT_LT(inf_norm(again.z - z), 1e-12);
   RecordProperty("zero_variables", zero_variables);
+
+  // ∞ against a variable that is exactly zero at the solution (∞·0 is NaN), and a finite G
+  // whose product overflows (a free row of 1e308 before a live row): the first is rejected, the
+  // second is not (G is checked in full when the product is not finite).
+  QpProblem small;
+  small.H = 2.0 * Eigen::Matrix2d::Identity();
+  small.f = Eigen::Vector2d(-4.0, 0.0);  // z = (2, 0)
+  small.G = Eigen::Matrix2d::Identity();
+  small.lg = Eigen::Vector2d(-kInfinity, -kInfinity);
+  small.ug = Eigen::Vector2d(kInfinity, 5.0);  // row 1 live, inactive
+  small.A.resize(0, 2);
+  QpSolver two({.method = QpMethod::kActiveSet});
+  ASSERT_EQ(two.solve(small).status, QpStatus::kSolved);
+  ASSERT_EQ(two.last_result().z[1], 0.0);
+  QpProblem spoiled = small;
+  spoiled.G(1, 1) = kInfinity;
+  EXPECT_EQ(two.solve(spoiled).status, QpStatus::kInvalidInput);
+  EXPECT_EQ(two.last_result().iterations, 0);
+  QpProblem huge = small;
+  huge.G(0, 0) = 1e308;  // 1e308 · 2 overflows in the product
+  const QpResult& big = two.solve(huge);
+  EXPECT_EQ(big.status, QpStatus::kSolved);
+  EXPECT_LT(inf_norm(big.z - Eigen::Vector2d(2.0, 0.0)), 1e-12);
+}
+
+// More equality rows than variables (consistent: z = 0 twice): the fast path leaves them to
+// the dual method, which keeps the independent one, instead of writing past its working set.
+TEST(DualActiveSetTest, MoreEqualitiesThanVariablesAreSolved) {
+  QpProblem q;
+  q.H = Eigen::Matrix<double, 1, 1>(1.0);
+  q.f = Eigen::Matrix<double, 1, 1>(-1.0);
+  q.G.resize(0, 1);
+  q.A = Eigen::Vector2d(1.0, 1.0);
+  q.b = Eigen::Vector2d(0.0, 0.0);
+  QpSolver solver({.method = QpMethod::kActiveSet});
+  for (int pass = 0; pass < 2; ++pass) {
+    const QpResult& r = solver.solve(q);
+    ASSERT_EQ(r.status, QpStatus::kSolved) << pass;
+    EXPECT_NEAR(r.z[0], 0.0, 1e-12);
+  }
 }
 
 // The fast path corrects a guessed working set that is one side off: a side that became
@@ -465,17 +505,27 @@ TEST(DualActiveSetTest, ANonFiniteRowEntryIsRejectedWhereverItIs) {
 // solve is repeated (one update each, no dual method). z = clamp(target, −∞, 1) on a box of
 // rows z_i ≤ 1 and H = 2I: the working set is the rows whose target exceeds 1.
 TEST(DualActiveSetTest, AGuessOneSideOffIsCorrectedByTheFastPath) {
-  const int n = 8;
+  // Variables 8–11 carry the equalities, which every working set holds and no correction may
+  // drop: row 8 is z_8 + z_9 = 0.5 (lg = ug), variable 10 is fixed at −0.2 (lb = ub), row 9 is
+  // the equality row z_11 = 0.3 of A.
+  const int n = 12, rows = 9;
   QpProblem q;
   q.H = 2.0 * Eigen::MatrixXd::Identity(n, n);
   q.lb = Eigen::VectorXd::Constant(n, -10.0);
   q.ub = Eigen::VectorXd::Constant(n, 10.0);
-  q.G = Eigen::MatrixXd::Identity(n, n);
-  q.lg = Eigen::VectorXd::Constant(n, -kInfinity);
-  q.ug = Eigen::VectorXd::Constant(n, 1.0);
-  q.A.resize(0, n);
+  q.lb[10] = q.ub[10] = -0.2;
+  q.G = Eigen::MatrixXd::Zero(rows, n);
+  q.G.leftCols(8).topRows(8).setIdentity();
+  q.G(8, 8) = q.G(8, 9) = 1.0;
+  q.lg = Eigen::VectorXd::Constant(rows, -kInfinity);
+  q.ug = Eigen::VectorXd::Constant(rows, 1.0);
+  q.lg[8] = q.ug[8] = 0.5;
+  q.A = Eigen::MatrixXd::Zero(1, n);
+  q.A(0, 11) = 1.0;
+  q.b = Eigen::VectorXd::Constant(1, 0.3);
   DualActiveSet solver;
-  solver.resize(n, n, 0);
+  solver.resize(n, rows, 1);
+  const int equalities = 3;
   // (target, the working set's size, updates of the hot-started solve)
   struct Case {
     Eigen::VectorXd target;
@@ -483,7 +533,7 @@ TEST(DualActiveSetTest, AGuessOneSideOffIsCorrectedByTheFastPath) {
   };
   Eigen::VectorXd t(n);
   std::vector<Case> cases;
-  t << 2.0, 3.0, 0.5, 0.2, 0.1, 0.0, -1.0, 0.3;
+  t << 2.0, 3.0, 0.5, 0.2, 0.1, 0.0, -1.0, 0.3, 0.0, 0.0, 0.0, 0.0;
   cases.push_back({t, 2, -1});  // the cold start
   t[2] = 1.5;                   // row 2 becomes violated: it joins
   cases.push_back({t, 3, 1});
@@ -498,14 +548,28 @@ TEST(DualActiveSetTest, AGuessOneSideOffIsCorrectedByTheFastPath) {
     SCOPED_TRACE(c);
     q.f = -2.0 * cases[c].target;
     ASSERT_EQ(solver.solve(q, c > 0, 100, 1e-10), ActiveSetOutcome::kSolved);
-    const Eigen::VectorXd expected = cases[c].target.cwiseMin(1.0);
+    Eigen::VectorXd expected = cases[c].target.cwiseMin(1.0);
+    expected.tail(4) << 0.25, 0.25, -0.2, 0.3;  // the equalities (targets 0: z_8 = z_9)
     EXPECT_LT(inf_norm(solver.z() - expected), 1e-12);
-    EXPECT_EQ(solver.working_set_size(), cases[c].active);
+    EXPECT_EQ(solver.working_set_size(), equalities + cases[c].active);
     if (cases[c].updates >= 0) {
       EXPECT_EQ(solver.iterations(), cases[c].updates);
       EXPECT_TRUE(solver.took_fast_path());  // no dual method
     }
   }
+  // Corrections count against the iteration cap: with one allowed, the last case's two
+  // changes are not made by the fast path (the dual method drops the side that left while it
+  // makes its start dual feasible, then adds one), and the answer is the same optimum.
+  QpSolver capped({.method = QpMethod::kActiveSet, .active_set_max_iterations = 1});
+  q.f = -2.0 * cases[3].target;
+  ASSERT_EQ(capped.solve(q).status, QpStatus::kSolved);
+  q.f = -2.0 * cases[4].target;
+  const QpResult& r = capped.solve(q);
+  ASSERT_EQ(r.status, QpStatus::kSolved);
+  EXPECT_LE(r.active_set_iterations, 1);
+  Eigen::VectorXd expected = cases[4].target.cwiseMin(1.0);
+  expected.tail(4) << 0.25, 0.25, -0.2, 0.3;
+  EXPECT_LT(inf_norm(r.z - expected), 1e-7);
 }
 
 }  // namespace
