@@ -50,16 +50,11 @@ struct Rotation {
   }
 };
 
-constexpr int kCacheLine = 64;  // bytes (x86-64 and the usual arm64 cores)
-
 // Fetches the next `lines` cache lines of the rows ahead of their first use (see
 // DualActiveSet::solve): spread over the columns of the factorizations, the transfers overlap
 // their arithmetic instead of stalling the product G·z that first reads the rows.
 inline __attribute__((always_inline)) void fetch_ahead(LinePrefetch* fetch, int lines) {
-  if (fetch == nullptr) return;
-  for (int k = 0; k < lines && fetch->next < fetch->bytes; ++k, fetch->next += kCacheLine) {
-    __builtin_prefetch(fetch->base + fetch->next, 0, 3);
-  }
+  if (fetch != nullptr) fetch->ahead(lines);
 }
 // Lines fetched per column of a factorization or triangular solve: at n = 30 the factor of H
 // fetches 15 KB of the default instances' 45 KB of G, the working set's solves more, and the
@@ -644,6 +639,10 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
   const double* l_inverse = l_inverse_diagonal_.data();
   forward_substitute(L_.data(), L_.outerStride(), n, l_inverse, jtf_.data(), l_end_.data());
   int computed = 0;  // the columns of Y computed: those of active_[0, computed)
+  // Another correction, whose working set has `sides` sides, is tried (see above).
+  const auto may_correct = [&](int correction, int sides) {
+    return correction < kMaxCorrections && 2 * sides <= n_ && iterations_ < max_iterations;
+  };
   for (int correction = 0;; ++correction) {
     const int k = count_;
     x_ = -jtf_;
@@ -675,9 +674,7 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
         }
       }
       if (negative >= 0) {
-        if (correction == kMaxCorrections || 2 * k > n_ || iterations_ >= max_iterations) {
-          return false;
-        }
+        if (!may_correct(correction, k)) return false;
         // The last side takes its place (the order of the working set is immaterial).
         active_[negative] = active_[k - 1];
         Y_.col(negative) = Y_.col(k - 1);
@@ -696,9 +693,7 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
     Side p;
     double violation = 0.0;
     if (!most_violated(p, violation)) break;
-    if (correction == kMaxCorrections || 2 * (count_ + 1) > n_ || iterations_ >= max_iterations) {
-      return false;
-    }
+    if (!may_correct(correction, count_ + 1)) return false;
     active_[count_++] = p;
     ++iterations_;
   }
@@ -885,21 +880,6 @@ bool DualActiveSet::finish(bool gx_current) {
     if (is_equality(Side{kLower, i}) && !holds(Side{kLower, i})) return false;
   }
   return dual_residual_ <= 10.0 * tolerance_ * scale;
-}
-
-bool DualActiveSet::rows_finite() const {
-  // A non-finite entry makes its row's product with a finite z non-finite (∞·0 is NaN, and a
-  // NaN or ∞ term stays in the sum), so the product the solve ended with has read every entry
-  // of the rows with a finite side; the free rows after them are read here.
-  // A sum of x·0 is 0 for finite x and NaN otherwise: one vectorized reduction (allFinite()
-  // tests the entries one by one).
-  const auto finite = [](const auto& x) { return (x.array() * 0.0).sum() == 0.0; };
-  const QpProblem& q = *q_;
-  if (!finite(x_) || !finite(gx_.head(m_live_))) return false;
-  for (Eigen::Index c = 0; c < q.G.cols(); ++c) {
-    if (!finite(q.G.col(c).segment(m_live_, m_ - m_live_))) return false;
-  }
-  return true;
 }
 
 void DualActiveSet::multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,

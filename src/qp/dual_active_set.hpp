@@ -52,10 +52,17 @@ enum class ActiveSetOutcome {
 };
 
 /// Storage still to be fetched into the cache, a line at a time (DualActiveSet::solve fetches
-/// G's rows ahead of their first use).
+/// G's rows ahead of their first use, QpSolver a problem's small arrays at once).
 struct LinePrefetch {
+  static constexpr std::size_t kLine = 64;  // bytes (x86-64 and the usual arm64 cores)
   const char* base = nullptr;
   std::size_t next = 0, bytes = 0;  // offsets from base: the next line's, and the end
+  /// Prefetches the next `lines` lines (a no-op for lines already in the cache).
+  void ahead(std::size_t lines) {
+    for (std::size_t k = 0; k < lines && next < bytes; ++k, next += kLine) {
+      __builtin_prefetch(base + next, 0, 3);
+    }
+  }
 };
 
 class DualActiveSet {
@@ -64,7 +71,7 @@ class DualActiveSet {
   /// only when a size grows. Forgets the working set when n or p changes.
   void resize(int n, int m, int p);
   /// Solves `q` (valid input, sized as in resize(); the entries of G may be unchecked: see
-  /// rows_finite()). `hot_start`: start from the working set of
+  /// row_products()). `hot_start`: start from the working set of
   /// the last kSolved. `tolerance`: feasibility tolerance per side, times max(1, ‖n‖), and the
   /// relative tolerance of the final stationarity check.
   ActiveSetOutcome solve(const QpProblem& q, bool hot_start, int max_iterations,
@@ -83,11 +90,12 @@ class DualActiveSet {
   /// Multipliers in QpResult's convention (+ upper side, − lower side).
   void multipliers(Eigen::VectorXd& dual_bounds, Eigen::VectorXd& dual_rows,
                    Eigen::VectorXd& dual_eq) const;
-  /// After kSolved: true only if every entry of G is finite, found without a pass of its own
-  /// over G (the product G·z the solve ended with has read the rows with a finite side). False
-  /// also when that product overflowed on finite rows: a caller that did not check G before
-  /// solve() checks it in full when this is false.
-  bool rows_finite() const;
+  /// After kSolved: G·z for the rows with a finite side, [0, live_rows()), the product the solve
+  /// ended with; the rows after them are free on both sides, never read. A non-finite entry of
+  /// a row makes its product with a finite z non-finite (∞·0 is NaN), so a caller that did not
+  /// check G's entries before solve() can check these products instead (QpSolver does).
+  const Eigen::VectorXd& row_products() const { return gx_; }
+  int live_rows() const { return m_live_; }
   int iterations() const { return iterations_; }
   /// Whether the last solve was answered by the fast path (the range-space solve of the
   /// guessed working set — the last solve's on a hot start, the equalities alone on a cold

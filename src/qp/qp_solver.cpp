@@ -155,12 +155,11 @@ RIDGELINE_SIMD_CLONES bool finite_and_symmetric(const double* h, Eigen::Index n)
   return sum == 0.0 && !(worst > 1e-10 * std::max(1.0, scale));
 }
 
-// Prefetches x's storage into the cache, a line at a time (a no-op for lines already there).
+// Prefetches x's storage into the cache, all its lines at once.
 template <typename Derived>
 void fetch_into_cache(const Eigen::PlainObjectBase<Derived>& x) {
-  const char* p = reinterpret_cast<const char*>(x.data());
   const std::size_t bytes = static_cast<std::size_t>(x.size()) * sizeof(typename Derived::Scalar);
-  for (std::size_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(p + offset, 0, 3);
+  LinePrefetch{reinterpret_cast<const char*>(x.data()), 0, bytes}.ahead(bytes);
 }
 
 template <typename Derived>
@@ -259,6 +258,22 @@ bool valid_input(const QpProblem& q, bool check_rows) {
     }
   }
   return valid_sides(q.lg, q.ug);
+}
+
+// After the active set's kSolved: every entry of G is finite, read from the product G·z the
+// solve ended with for the rows with a finite side (a non-finite entry makes its row's product
+// with a finite z non-finite, ∞·0 included) and from G itself for the free rows after them,
+// which the product skips. False also when the product overflowed on finite rows: the caller
+// then checks G in full.
+bool rows_finite(const QpProblem& q, const DualActiveSet& active_set) {
+  const Eigen::Index live = active_set.live_rows(), m = q.G.rows();
+  if (!all_finite(active_set.z()) || !finite_entries(active_set.row_products().data(), live)) {
+    return false;
+  }
+  for (Eigen::Index c = 0; c < q.G.cols(); ++c) {
+    if (!finite_entries(q.G.col(c).data() + live, m - live)) return false;
+  }
+  return true;
 }
 
 // Two sides this close form an equality: as two inequalities they would leave no interior.
@@ -1195,7 +1210,7 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
        {&problem.f, &problem.lb, &problem.ub, &problem.lg, &problem.ug}) {
     fetch_into_cache(*v);
   }
-  // The active set checks G's entries through the product G·z it ends with (rows_finite()),
+  // The active set checks G's entries through the product G·z it ends with (rows_finite),
   // not by a pass of its own before the solve: such a pass would be the first to read G and
   // wait for it from memory when the caller's rows are not in the cache (a stored sequence of
   // problems: about a fifth of a solve of gen_mpc_qps.py's instances), where the solve fetches
@@ -1205,7 +1220,7 @@ const QpResult& QpSolver::solve(const QpProblem& problem) {
   if (valid && active_set) {
     answered = solve_active_set(problem);
     const bool rows_read =
-        answered && r.status == QpStatus::kSolved && workspace_->active_set.rows_finite();
+        answered && r.status == QpStatus::kSolved && rows_finite(problem, workspace_->active_set);
     if (!rows_read) valid = all_finite(problem.G);
   }
   if (!valid) {
