@@ -24,7 +24,7 @@ constexpr double kDependence = 1e-10;
 constexpr double kMaxConditionEstimate = 1e14;
 // Corrections of the guessed working set the fast path tries before the dual method (see
 // try_working_set).
-constexpr int kMaxCorrections = 3;
+constexpr int kMaxCorrections = 5;
 
 bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
 
@@ -169,6 +169,32 @@ RIDGELINE_SIMD_CLONES bool cholesky_lower(const double* H, Eigen::Index ldh, dou
   return true;
 }
 
+// Rows [first, n) of the Cholesky factor L of H (both column-major, H's lower triangle read),
+// rows [0, first) being already H's: when only the matrix's later rows and columns changed,
+// its factor's leading rows stay, and each later row is computed from the rows above it
+// (L(b, a) = (H(b, a) − Σ_{m<a} L(a, m)·L(b, m)) / L(a, a), then the pivot), the terms in the
+// order cholesky_lower sums them. Row by row in scalars: the fast path's factors are a few
+// dozen rows, and a correction changes one or a few of them. False unless every pivot is
+// positive.
+RIDGELINE_SIMD_CLONES bool cholesky_rows(const double* H, Eigen::Index ldh, double* L,
+                                         Eigen::Index ldl, Eigen::Index first, Eigen::Index n,
+                                         double* __restrict inverse_diagonal) {
+  for (Eigen::Index b = first; b < n; ++b) {
+    for (Eigen::Index a = 0; a < b; ++a) {
+      double v = H[a * ldh + b];
+      for (Eigen::Index m = 0; m < a; ++m) v = v - L[m * ldl + a] * L[m * ldl + b];
+      L[a * ldl + b] = v * inverse_diagonal[a];
+    }
+    double pivot = H[b * ldh + b];
+    for (Eigen::Index m = 0; m < b; ++m) pivot = pivot - L[m * ldl + b] * L[m * ldl + b];
+    if (!(pivot > 0.0)) return false;
+    const double d = std::sqrt(pivot);
+    L[b * ldl + b] = d;
+    inverse_diagonal[b] = 1.0 / d;
+  }
+  return true;
+}
+
 // L_ = chol(H) with its envelope (the active set's factor).
 bool cholesky_lower(const Eigen::MatrixXd& H, Eigen::MatrixXd& L, int* end,
                     double* inverse_diagonal, LinePrefetch* fetch) {
@@ -236,13 +262,15 @@ RIDGELINE_SIMD_CLONES void back_substitute_transposed(const double* L, Eigen::In
   }
 }
 
-// S's lower triangle = YᵀY for the first k columns of Y (n rows), column-major S.
-RIDGELINE_SIMD_CLONES void gram_lower(const Eigen::MatrixXd& Y, Eigen::Index n, int k, double* S,
-                                      Eigen::Index lds, LinePrefetch* fetch) {
-  for (int a = 0; a < k; ++a) {
+// Rows [first, k) of S's lower triangle = YᵀY for the first k columns of Y (n rows),
+// column-major S: S(b, a) = y_bᵀy_a for a ≤ b, the rows of the sides that joined since the
+// rows before them were formed (first = 0: all of it).
+RIDGELINE_SIMD_CLONES void gram_rows(const Eigen::MatrixXd& Y, Eigen::Index n, int first, int k,
+                                     double* S, Eigen::Index lds, LinePrefetch* fetch) {
+  for (int b = first; b < k; ++b) {
     fetch_ahead(fetch, kLinesPerColumn);
-    const double* ya = Y.col(a).data();
-    for (int b = a; b < k; ++b) S[a * lds + b] = dot(Y.col(b).data(), ya, n);
+    const double* yb = Y.col(b).data();
+    for (int a = 0; a <= b; ++a) S[a * lds + b] = dot(yb, Y.col(a).data(), n);
   }
 }
 
@@ -356,6 +384,7 @@ void DualActiveSet::resize(int n, int m, int p) {
     R_.setZero(n, n);
     Y_.setZero(n, n);
     S_.setZero(n, n);
+    gram_.setZero(n, n);
     for (Eigen::VectorXd* v : {&x_, &u_, &d_, &step_, &r_, &jtf_, &v_, &hx_, &res_, &dual_bounds_,
                                &l_inverse_diagonal_, &s_inverse_diagonal_}) {
       v->setZero(n);
@@ -605,15 +634,18 @@ bool DualActiveSet::usable(Side c) const {
 // When a check fails, the guess is corrected and solved again, kMaxCorrections times at most:
 // the inequality with the most negative multiplier leaves the working set, or else the most
 // violated side joins it (an MPC's working set mostly gains or loses one side from a period to
-// the next). A correction computes Y's column of the side that joins (the others are kept)
-// and S again, a fraction of what the dual method's start costs (J = L⁻ᵀ and a reflection a
-// side), while the working set holds at most n/2 sides and within max_iterations (each
-// correction counts as one). A correction that fails adds its cost (S formed again, k²n/2
-// flops, and the product G·z) to the dual method's, and they fail most in the solves whose
-// working set changes by several sides, the slowest: without the limit gen_mpc_qps.py's p99
-// rose by 15 % (limits n/3, n/2.5, n/2 and none measured; n/2 kept). A point is accepted only by
-// the checks of an optimum (every side met, every inequality multiplier nonnegative, stationarity),
-// so a correction that does not lead to the optimum costs time, never the answer: when the
+// the next), within max_iterations (each correction counts as one). A correction forms only
+// what changed: a side that joins adds its column of Y, its row of the Gram matrix YᵀY (k dot
+// products) and one row of the Gram matrix's factor; a side that leaves gives its place to the
+// last one, whose Gram entries move with it, and the factor's rows from that place on are
+// computed again (the rows before it are the same). Before, each correction formed YᵀY again
+// (k²n/2 flops), and a failed one cost so much in the slow solves of gen_mpc_qps.py that the
+// corrections were limited to working sets of n/2 sides; in `bench mpc` nearly every solve the
+// dual method made was one at 16–23 sides, one to three sides off its guess. Five corrections:
+// with three, gen_mpc_qps.py's p99 was 2.8–3.0 times its median, with five 2.77 (its p90 17 µs
+// in both, against 29 µs with the n/2 limit). A point is accepted only by the checks of an
+// optimum (every side met, every inequality multiplier nonnegative, stationarity), so a
+// correction that does not lead to the optimum costs time, never the answer: when the
 // corrections run out or the sides are nearly dependent, the dual method starts from the previous
 // working set, as without them.
 bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
@@ -638,11 +670,15 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
   jtf_ = q.f;  // g = L⁻¹f
   const double* l_inverse = l_inverse_diagonal_.data();
   forward_substitute(L_.data(), L_.outerStride(), n, l_inverse, jtf_.data(), l_end_.data());
-  int computed = 0;  // the columns of Y computed: those of active_[0, computed)
-  // Another correction, whose working set has `sides` sides, is tried (see above).
-  const auto may_correct = [&](int correction, int sides) {
-    return correction < kMaxCorrections && 2 * sides <= n_ && iterations_ < max_iterations;
+  // The sides active_[0, computed) have their columns of Y and their rows of the Gram matrix
+  // YᵀY; the first `factored` columns of its factor are current.
+  int computed = 0, factored = 0;
+  // Another correction is tried (see above).
+  const auto may_correct = [&](int correction) {
+    return correction < kMaxCorrections && iterations_ < max_iterations;
   };
+  double* gram = gram_.data();
+  const Eigen::Index ldg = gram_.outerStride();
   for (int correction = 0;; ++correction) {
     const int k = count_;
     x_ = -jtf_;
@@ -652,13 +688,20 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
         add_normal(active_[j], 1.0, Y_.col(j));
       }
       solve_lower_columns(L_, l_end_.data(), l_inverse, Y_, computed, k, &fetch_);
+      // YᵀY = NᵀH⁻¹N: the rows of the sides that joined, then its factor S: in full the first
+      // time, after a correction from the first row that changed (the rows before it depend
+      // only on the sides before it).
+      gram_rows(Y_, n, computed, k, gram, ldg, &fetch_);
+      factored = std::min(factored, computed);
       computed = k;
-      // S = YᵀY = NᵀH⁻¹N, factored in place.
       double* S = S_.data();
       const Eigen::Index lds = S_.outerStride();
-      gram_lower(Y_, n, k, S, lds, &fetch_);
       double* s_inverse = s_inverse_diagonal_.data();
-      if (!cholesky_lower(S, lds, S, lds, k, nullptr, s_inverse)) return false;
+      const bool factor_ok = factored == 0
+                                 ? cholesky_lower(gram, ldg, S, lds, k, nullptr, s_inverse)
+                                 : cholesky_rows(gram, ldg, S, lds, factored, k, s_inverse);
+      if (!factor_ok) return false;
+      factored = k;
       const double ratio = diagonal_ratio(S, lds, k);
       if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
       for (int j = 0; j < k; ++j) {
@@ -674,11 +717,20 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
         }
       }
       if (negative >= 0) {
-        if (!may_correct(correction, k)) return false;
-        // The last side takes its place (the order of the working set is immaterial).
-        active_[negative] = active_[k - 1];
-        Y_.col(negative) = Y_.col(k - 1);
+        if (!may_correct(correction)) return false;
+        // The last side takes its place (the order of the working set is immaterial), with its
+        // column of Y and its Gram entries (y_bᵀy_a = y_aᵀy_b to the bit: the same products
+        // summed in the same order); the factor is computed again from that column on.
+        const int last = k - 1;
+        if (negative < last) {
+          active_[negative] = active_[last];
+          Y_.col(negative) = Y_.col(last);
+          for (int a = 0; a < negative; ++a) gram[a * ldg + negative] = gram[a * ldg + last];
+          gram[negative * ldg + negative] = gram[last * ldg + last];
+          for (int b = negative + 1; b < last; ++b) gram[negative * ldg + b] = gram[b * ldg + last];
+        }
         computed = --count_;
+        factored = std::min(factored, negative);
         ++iterations_;
         continue;
       }
@@ -693,7 +745,7 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
     Side p;
     double violation = 0.0;
     if (!most_violated(p, violation)) break;
-    if (!may_correct(correction, count_ + 1)) return false;
+    if (count_ >= n_ || !may_correct(correction)) return false;
     active_[count_++] = p;
     ++iterations_;
   }

@@ -99,7 +99,7 @@ class DualActiveSet {
   int iterations() const { return iterations_; }
   /// Whether the last solve was answered by the fast path (the range-space solve of the
   /// guessed working set — the last solve's on a hot start, the equalities alone on a cold
-  /// one — corrected by iterations() updates, three at most), not by the dual method.
+  /// one — corrected by iterations() updates, five at most), not by the dual method.
   bool took_fast_path() const { return fast_path_; }
   int working_set_size() const { return count_; }
   double objective() const { return objective_; }
@@ -144,7 +144,9 @@ class DualActiveSet {
   std::vector<int> l_end_;  // L_'s envelope: one past each column's last row that can be nonzero
   Eigen::MatrixXd J_, R_;
   Eigen::VectorXd x_, u_, d_, step_, r_, jtf_, v_, hx_, res_, gx_;
-  Eigen::MatrixXd Y_, S_;  // the fast path's L⁻¹N and its Gram matrix
+  // The fast path's Y = L⁻¹N, its Gram matrix YᵀY (lower triangle) and the Gram matrix's
+  // Cholesky factor S, kept apart so that a correction forms only what changed.
+  Eigen::MatrixXd Y_, gram_, S_;
   Eigen::VectorXd dual_bounds_, dual_eq_;
   // Working set: count_ entries; saved_ is the working set of the last kSolved (for hot start).
   std::vector<Side> active_, saved_;

@@ -572,5 +572,60 @@ TEST(DualActiveSetTest, AGuessOneSideOffIsCorrectedByTheFastPath) {
   EXPECT_LT(inf_norm(r.z - expected), 1e-7);
 }
 
+TEST(DualActiveSetTest, CorrectionsOfALargeWorkingSetKeepTheFastPath) {
+  // Working sets of more than half the variables, with a coupled H (so that Y = L⁻¹N is full
+  // and the Gram matrix YᵀY has off-diagonal entries), corrected by the fast path: a side
+  // leaves from the middle of the working set (the last one takes its place, and the Gram
+  // matrix's factor is computed again from that row), a side joins (one row appended), both,
+  // and five changes at once; each answer equals a cold solve's (the dual method's).
+  const int n = 10, rows = 9;
+  QpProblem q;
+  q.H = 2.0 * Eigen::MatrixXd::Identity(n, n);
+  for (int i = 0; i + 1 < n; ++i) q.H(i, i + 1) = q.H(i + 1, i) = 0.3;
+  q.lb = Eigen::VectorXd::Constant(n, -10.0);
+  q.ub = Eigen::VectorXd::Constant(n, 10.0);
+  q.G = Eigen::MatrixXd::Zero(rows, n);
+  q.G.leftCols(rows).setIdentity();  // z_i ≤ 1 for i < 9
+  q.lg = Eigen::VectorXd::Constant(rows, -kInfinity);
+  q.ug = Eigen::VectorXd::Constant(rows, 1.0);
+  DualActiveSet solver;
+  solver.resize(n, rows, 0);
+  // (targets of the unconstrained minimizer, the working set's size, the fast path's updates)
+  struct Case {
+    Eigen::VectorXd target;
+    int active, updates;
+  };
+  Eigen::VectorXd t(n);
+  std::vector<Case> cases;
+  t << 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, 3.0, -2.0, -2.0, 0.0;
+  cases.push_back({t, 7, -1});  // the cold start: rows 0–6 active, 7 > n/2
+  t[2] = -2.0;                  // row 2, in the middle of the working set, leaves
+  cases.push_back({t, 6, 1});
+  t[8] = 3.0;  // row 8 joins (at the end)
+  cases.push_back({t, 7, 1});
+  t[4] = -2.0;  // one leaves, one joins
+  t[7] = 3.0;
+  cases.push_back({t, 7, 2});
+  t[0] = t[1] = t[3] = -2.0;  // three leave, two join: five changes
+  t[2] = 3.0;
+  t[4] = 3.0;
+  cases.push_back({t, 6, 5});
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    SCOPED_TRACE(c);
+    q.f = -q.H * cases[c].target;
+    ASSERT_EQ(solver.solve(q, c > 0, 100, 1e-10), ActiveSetOutcome::kSolved);
+    DualActiveSet cold;
+    cold.resize(n, rows, 0);
+    ASSERT_EQ(cold.solve(q, false, 100, 1e-10), ActiveSetOutcome::kSolved);
+    EXPECT_LT(inf_norm(solver.z() - cold.z()), 1e-12);
+    EXPECT_LE(solver.z().head(rows).maxCoeff(), 1.0 + 1e-12);
+    EXPECT_EQ(solver.working_set_size(), cases[c].active);
+    if (cases[c].updates >= 0) {
+      EXPECT_EQ(solver.iterations(), cases[c].updates);
+      EXPECT_TRUE(solver.took_fast_path());  // no dual method
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ridgeline::qp
