@@ -634,7 +634,9 @@ bool DualActiveSet::usable(Side c) const {
 // When a check fails, the guess is corrected and solved again, kMaxCorrections times at most:
 // the inequality with the most negative multiplier leaves the working set, or else the most
 // violated side joins it (an MPC's working set mostly gains or loses one side from a period to
-// the next), within max_iterations (each correction counts as one). A correction forms only
+// the next), or, when the side that joined lies in the span of the others, the side the dual
+// method's ratio test picks leaves for it; within max_iterations (each correction counts as
+// one). A correction forms only
 // what changed: a side that joins adds its column of Y, its row of the Gram matrix YᵀY (k dot
 // products) and one row of the Gram matrix's factor; a side that leaves gives its place to the
 // last one, whose Gram entries move with it, and the factor's rows from that place on are
@@ -673,12 +675,33 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
   // The sides active_[0, computed) have their columns of Y and their rows of the Gram matrix
   // YᵀY; the first `factored` columns of its factor are current.
   int computed = 0, factored = 0;
+  bool joined = false;  // the last correction added a side (the working set's last)
   // Another correction is tried (see above).
   const auto may_correct = [&](int correction) {
     return correction < kMaxCorrections && iterations_ < max_iterations;
   };
   double* gram = gram_.data();
   const Eigen::Index ldg = gram_.outerStride();
+  double* S = S_.data();
+  const Eigen::Index lds = S_.outerStride();
+  double* s_inverse = s_inverse_diagonal_.data();
+  // Side `leaving` of the k in the working set leaves it: the last side takes its place (the
+  // order of the working set is immaterial), with its column of Y and its Gram entries
+  // (y_bᵀy_a = y_aᵀy_b to the bit: the same products summed in the same order), and the
+  // factor is computed again from that row on.
+  const auto leave = [&](int leaving, int k) {
+    const int last = k - 1;
+    if (leaving < last) {
+      active_[leaving] = active_[last];
+      Y_.col(leaving) = Y_.col(last);
+      for (int a = 0; a < leaving; ++a) gram[a * ldg + leaving] = gram[a * ldg + last];
+      gram[leaving * ldg + leaving] = gram[last * ldg + last];
+      for (int b = leaving + 1; b < last; ++b) gram[leaving * ldg + b] = gram[b * ldg + last];
+    }
+    computed = --count_;
+    factored = std::min(factored, leaving);
+    ++iterations_;
+  };
   for (int correction = 0;; ++correction) {
     const int k = count_;
     x_ = -jtf_;
@@ -694,16 +717,32 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
       gram_rows(Y_, n, computed, k, gram, ldg, &fetch_);
       factored = std::min(factored, computed);
       computed = k;
-      double* S = S_.data();
-      const Eigen::Index lds = S_.outerStride();
-      double* s_inverse = s_inverse_diagonal_.data();
       const bool factor_ok = factored == 0
                                  ? cholesky_lower(gram, ldg, S, lds, k, nullptr, s_inverse)
                                  : cholesky_rows(gram, ldg, S, lds, factored, k, s_inverse);
-      if (!factor_ok) return false;
+      const double ratio = factor_ok ? diagonal_ratio(S, lds, k) : kInfinity;
+      if (!(ratio * ratio < 1e12)) {  // dependent or nearly dependent sides
+        // The side that just joined lies (nearly) in the span of the others, n_p = N r in H⁻¹'s
+        // metric: as the dual method's step without a primal part, the side whose multiplier
+        // u_j − t·r_j reaches zero first as p's grows by t leaves for it (the rows of S before
+        // the last are the working set's factor, and the last row's entries before its pivot
+        // are w = S⁻¹Yᵀy_p, so r = S⁻ᵀw). Otherwise the dual method decides (infeasible, or
+        // dependent equalities).
+        if (!joined || factored != k - 1 || !may_correct(correction)) return false;
+        for (int a = 0; a < k - 1; ++a) r_[a] = S[a * lds + k - 1];
+        back_substitute_transposed(S, lds, k - 1, s_inverse, r_.data(), nullptr);
+        int leaving = -1;
+        for (int j = equalities; j < k - 1; ++j) {
+          if (r_[j] > 0.0 && (leaving < 0 || u_[j] * r_[leaving] < u_[leaving] * r_[j])) {
+            leaving = j;
+          }
+        }
+        if (leaving < 0) return false;
+        leave(leaving, k);
+        joined = false;
+        continue;
+      }
       factored = k;
-      const double ratio = diagonal_ratio(S, lds, k);
-      if (!(ratio * ratio < 1e12)) return false;  // nearly dependent sides: the dual method
       for (int j = 0; j < k; ++j) {
         u_[j] = value(active_[j]) + dot(Y_.col(j).data(), jtf_.data(), n);
       }
@@ -718,20 +757,8 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
       }
       if (negative >= 0) {
         if (!may_correct(correction)) return false;
-        // The last side takes its place (the order of the working set is immaterial), with its
-        // column of Y and its Gram entries (y_bᵀy_a = y_aᵀy_b to the bit: the same products
-        // summed in the same order); the factor is computed again from that column on.
-        const int last = k - 1;
-        if (negative < last) {
-          active_[negative] = active_[last];
-          Y_.col(negative) = Y_.col(last);
-          for (int a = 0; a < negative; ++a) gram[a * ldg + negative] = gram[a * ldg + last];
-          gram[negative * ldg + negative] = gram[last * ldg + last];
-          for (int b = negative + 1; b < last; ++b) gram[negative * ldg + b] = gram[b * ldg + last];
-        }
-        computed = --count_;
-        factored = std::min(factored, negative);
-        ++iterations_;
+        leave(negative, k);
+        joined = false;
         continue;
       }
       for (int j = equalities; j < k; ++j) u_[j] = std::max(u_[j], 0.0);
@@ -747,6 +774,7 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
     if (!most_violated(p, violation)) break;
     if (count_ >= n_ || !may_correct(correction)) return false;
     active_[count_++] = p;
+    joined = true;
     ++iterations_;
   }
   if (!finish(true)) return false;
@@ -894,7 +922,7 @@ ActiveSetOutcome DualActiveSet::solve(const QpProblem& q, bool hot_start, int ma
 
 bool DualActiveSet::finish(bool gx_current) {
   const QpProblem& q = *q_;
-  hx_.noalias() = q.H * x_;
+  product_columns(q.H, n_, x_, hx_.data());  // Hz (Eigen's product here is not the AVX2 clone)
   objective_ = 0.5 * x_.dot(hx_) + q.f.dot(x_);
   // Stationarity Hz + f − Σ uⱼnⱼ = 0.
   res_.setZero();

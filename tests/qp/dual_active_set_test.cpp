@@ -627,5 +627,51 @@ TEST(DualActiveSetTest, CorrectionsOfALargeWorkingSetKeepTheFastPath) {
   }
 }
 
+TEST(DualActiveSetTest, ASideJoiningInTheSpanOfTheWorkingSetIsSwappedIn) {
+  // z_0 ≤ 1, z_1 ≤ 1 and z_0 + z_1 ≤ c: with c = 2.5 the first two are the working set; with
+  // c = 1.5 the third joins, and its normal is the sum of theirs (the Gram matrix of the three is
+  // singular). The fast path lets the side whose multiplier reaches zero first as the third's
+  // grows leave for it: the one with the smaller multiplier, whose target is nearer its bound
+  // (the other one's multiplier would turn negative, then the first one come back: four updates
+  // instead of two). Both orders of the targets; no dual method; each answer is a cold start's.
+  const int n = 3, rows = 3;
+  for (const bool first_nearer : {true, false}) {
+    SCOPED_TRACE(first_nearer);
+    const Eigen::Vector3d target =
+        first_nearer ? Eigen::Vector3d(3.0, 4.0, -0.5) : Eigen::Vector3d(4.0, 3.0, -0.5);
+    QpProblem q;
+    q.H = 2.0 * Eigen::MatrixXd::Identity(n, n);
+    q.f = -2.0 * target;
+    q.lb = Eigen::VectorXd::Constant(n, -10.0);
+    q.ub = Eigen::VectorXd::Constant(n, 10.0);
+    q.G = Eigen::MatrixXd::Zero(rows, n);
+    q.G(0, 0) = q.G(1, 1) = q.G(2, 0) = q.G(2, 1) = 1.0;
+    q.lg = Eigen::VectorXd::Constant(rows, -kInfinity);
+    q.ug = Eigen::Vector3d(1.0, 1.0, 2.5);
+    DualActiveSet solver;
+    solver.resize(n, rows, 0);
+    // The first solve with the targets the other way round (so that neither order of the two
+    // sides in the working set is the order of their multipliers in both cases).
+    q.f = -2.0 * Eigen::Vector3d(target[1], target[0], target[2]);
+    ASSERT_EQ(solver.solve(q, false, 100, 1e-10), ActiveSetOutcome::kSolved);
+    EXPECT_LT(inf_norm(solver.z() - Eigen::Vector3d(1.0, 1.0, -0.5)), 1e-12);
+    ASSERT_EQ(solver.working_set_size(), 2);
+    q.f = -2.0 * target;
+    q.ug[2] = 1.5;
+    ASSERT_EQ(solver.solve(q, true, 100, 1e-10), ActiveSetOutcome::kSolved);
+    // The side at its bound stays (the farther target), the sum takes the rest.
+    const Eigen::Vector3d expected =
+        first_nearer ? Eigen::Vector3d(0.5, 1.0, -0.5) : Eigen::Vector3d(1.0, 0.5, -0.5);
+    EXPECT_LT(inf_norm(solver.z() - expected), 1e-12);
+    EXPECT_EQ(solver.working_set_size(), 2);
+    EXPECT_EQ(solver.iterations(), 2);  // the third joins, one leaves for it
+    EXPECT_TRUE(solver.took_fast_path());
+    DualActiveSet cold;
+    cold.resize(n, rows, 0);
+    ASSERT_EQ(cold.solve(q, false, 100, 1e-10), ActiveSetOutcome::kSolved);
+    EXPECT_LT(inf_norm(cold.z() - solver.z()), 1e-12);
+  }
+}
+
 }  // namespace
 }  // namespace ridgeline::qp
