@@ -71,6 +71,9 @@
 //    a row of Φ_j likewise with C, a group's block of H when none of its rows changed, and a
 //    row's range over the move box (see forward_pass). For the UAV only the x and y rows are
 //    computed each step; rows that change at every step alternate between two rows of Γ.
+//  - Which rows a pass computes, from which rows and coefficients, is decided row by row from
+//    what changed; while that is the same as at the last pass (the tracker's steady state: the
+//    x and y rows of every step), the pass replays the last one's row updates as recorded.
 //  - The input-limit rows, the slack terms and the QP's layout are written once at
 //    construction.
 //  - Soft rows that no move within the move limits can violate are left out of the QP (they
@@ -352,6 +355,31 @@ class IncrementalMpc {
   // the present reaches (rows_valid_).
   std::vector<std::uint64_t> a_changed_rows_, a_dependents_, b_changed_rows_, c_sources_;
   std::vector<int> phi_changed_;
+  // The forward pass's row updates as made by the last pass that decided them row by row,
+  // replayed while what decided them is the same (see forward_pass): each names the row it
+  // writes, the rows and coefficients it sums (the coefficients read at each update, in
+  // a_entries_ and c_entries_, which keep their places while the listings stay), and for Φ its
+  // row and group (to mark them for assemble_soft_rows and build_cost). Rows of more than
+  // kMaxRowTerms terms are not recorded (the pass then decides every step).
+  static constexpr int kMaxRowTerms = 4;
+  struct RowUpdate {
+    double* row;                              // the row's start (B_j's entries by column)
+    double* target;                           // the row at its span's start
+    const double* base;                       // Φ's row above at the span (null: none)
+    const double* coefficient[kMaxRowTerms];  // the terms' coefficients
+    const double* source[kMaxRowTerms];       // the terms' source rows at the span
+    int size, count;                          // the span's columns, the terms
+    int b_begin, b_end;                       // Γ: the row's entries of B_j (j < Nc)
+    int phi_row, group;                       // Φ: the row and its output's group (−1: none)
+  };
+  std::vector<RowUpdate> gamma_updates_, phi_updates_;  // capacity Np·n_s, Np·n_y
+  std::vector<int> gamma_begin_, phi_begin_;            // Np + 1 each: step j's updates
+  // What decided them: the listings (a count of their changes), the masks, the rows computed.
+  bool updates_valid_ = false;
+  std::uint64_t listing_generation_ = 0, updates_listing_ = 0;
+  std::uint64_t updates_alternating_ = 0, updates_no_history_ = 0;
+  std::vector<std::uint64_t> updates_a_changed_, updates_b_changed_;
+  int updates_rows_computed_ = 0;
   // Rows of Φ changed since their range over the move box was computed (Np·n_y), and groups
   // whose rows changed since their block of H was summed (n_y); the group of each output
   // (−1: none).

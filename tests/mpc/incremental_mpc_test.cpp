@@ -364,6 +364,25 @@ bool same_bits(const Matrix& a, const Matrix& b) {
          std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
 }
 
+// Bit for bit after both solved: Φ, the free response, H, f, the move box, and the QP's rows (the
+// input limits and the soft rows kept) with their bounds.
+void expect_same_build(const IncrementalMpc& kept, const IncrementalMpc& fresh) {
+  EXPECT_TRUE(same_bits(kept.Phi(), fresh.Phi()));
+  EXPECT_TRUE(same_bits(kept.free_response(), fresh.free_response()));
+  const qp::QpProblem& a = kept.qp_problem();
+  const qp::QpProblem& b = fresh.qp_problem();
+  EXPECT_TRUE(same_bits(a.H, b.H));
+  EXPECT_TRUE(same_bits(a.f, b.f));
+  EXPECT_TRUE(same_bits(a.lb, b.lb));
+  EXPECT_TRUE(same_bits(a.ub, b.ub));
+  const int kept_rows = kept.last_result().soft_rows_in_qp;
+  ASSERT_EQ(kept_rows, fresh.last_result().soft_rows_in_qp);
+  const int rows = kept.options().control_horizon * kept.dims().input_dim + kept_rows;
+  EXPECT_TRUE(same_bits(MatX(a.G.topRows(rows)), MatX(b.G.topRows(rows))));
+  EXPECT_TRUE(same_bits(VecX(a.lg.head(rows)), VecX(b.lg.head(rows))));
+  EXPECT_TRUE(same_bits(VecX(a.ug.head(rows)), VecX(b.ug.head(rows))));
+}
+
 // The condensing keeps the rows of Γ and Φ that did not change since the last step. A
 // controller that has run for many steps must build exactly (bit for bit) the QP a new one
 // builds from the same data, whatever changed in between: the heading-dependent entries of
@@ -469,25 +488,92 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
     }
     fewer += computed < all_rows ? 1 : 0;
     none += computed == 0 ? 1 : 0;
-    // Bit for bit: Φ, the free response, H, f and the QP's rows and their bounds.
-    EXPECT_TRUE(same_bits(kept.Phi(), fresh.Phi()));
-    EXPECT_TRUE(same_bits(kept.free_response(), fresh.free_response()));
-    const qp::QpProblem& a = kept.qp_problem();
-    const qp::QpProblem& b = fresh.qp_problem();
-    EXPECT_TRUE(same_bits(a.H, b.H));
-    EXPECT_TRUE(same_bits(a.f, b.f));
-    EXPECT_TRUE(same_bits(a.lb, b.lb));
-    EXPECT_TRUE(same_bits(a.ub, b.ub));
-    ASSERT_EQ(r.soft_rows_in_qp, f.soft_rows_in_qp);
-    const int rows = nc * nu + r.soft_rows_in_qp;
-    EXPECT_TRUE(same_bits(MatX(a.G.topRows(rows)), MatX(b.G.topRows(rows))));
-    EXPECT_TRUE(same_bits(VecX(a.lg.head(rows)), VecX(b.lg.head(rows))));
-    EXPECT_TRUE(same_bits(VecX(a.ug.head(rows)), VecX(b.ug.head(rows))));
+    expect_same_build(kept, fresh);
   }
   // Rows were kept at the steps of changes 0, 2, 3 (Γ), 6, 7, 8, 9 and 10 (not only where
   // nothing changed), and none computed at those of 1 (before its change), 6 and 10.
   EXPECT_GE(fewer, 4 * 8 - 1);
   EXPECT_GE(none, 4 * 3);
+}
+
+// The tracker's steady state: a new nominal at every step changes the x and y rows of every
+// A_j and nothing else, so that each pass after the first few replays the last one's row
+// updates (see forward_pass). Runs of such steps, broken by changes that make the pass decide
+// its rows again (a B_j, C, a constant row's value, a new nonzero, the same heading twice so that
+// no row changes, a changed box); at each step the QP's data equal bit for bit those of a
+// controller that decides every row, with soft rows near the edge of what the moves reach (whose
+// ranges the replayed updates must mark) and altitude floors (their group's block of H).
+TEST(IncrementalMpcCondensing, ReplayedRowUpdatesEqualAFreshBuild) {
+  std::mt19937 rng(21);
+  const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 20, nc = 5;
+  const IncrementalMpcOptions o = uav_options(np, nc);
+  const IncrementalMpcDims dims{ns, nu, ny, 3, 3 * np, 2};
+  IncrementalMpc kept(dims, o);
+  IncrementalMpcData& d = kept.data();
+  std::uniform_real_distribution<double> heading(-kPi, kPi), unit(0.0, 1.0);
+  double psi = 0.4;
+  for (int step = 0; step < 96; ++step) {
+    SCOPED_TRACE(step);
+    const int change = step % 16;
+    if (change != 7) psi = heading(rng);  // at 7: the same nominal as the step before
+    set_uav_plant(d, psi, 0.02 * unit(rng), 0.1 * unit(rng));
+    switch (change) {
+      case 2:  // a new nonzero (x reads the turn rate) at one step, the reaches the same ...
+        d.A[3](vehicle::kX, vehicle::kOmega) = 0.001;
+        break;
+      case 3:  // ... at the next one instead: the same masks, the entries in other places
+        d.A[4](vehicle::kX, vehicle::kOmega) = 0.001;
+        break;
+      case 8:  // an input's effect at one move
+        d.B[static_cast<std::size_t>(step % nc)](vehicle::kOmega, 1) *= 1.05;
+        break;
+      case 9:  // a constant row's value at one step (the listing stays)
+        d.A[static_cast<std::size_t>(step % np)](vehicle::kV, vehicle::kV) *= 1.0 + 0.1 * unit(rng);
+        break;
+      case 10:  // C
+        d.C(1, 1) = 1.0 + 0.1 * unit(rng);
+        break;
+      case 11: {  // the climb's move box
+        const double climb = 0.02 + 0.3 * unit(rng);
+        d.move_min.row(2).setConstant(-climb);
+        d.move_max.row(2).setConstant(climb);
+        break;
+      }
+      default:  // 0, 1, 4, 5, 6, 12–15: a new nominal only
+        break;
+    }
+    d.delta_state = random_matrix(rng, ns, 1, 0.05);
+    d.output = random_matrix(rng, ny, 1, 50.0);
+    d.state = random_matrix(rng, ns, 1, 50.0);
+    d.reference = random_matrix(rng, ny, np, 3.0);
+    for (int j = 0; j < np; ++j) d.reference.col(j) += d.output;
+    // Soft rows on x, y and z and altitude floors, their bounds from 4 m inside to 1 m outside
+    // the free response (from a controller of its own, so that `kept` builds once a step): many
+    // near the edge of what the moves can reach, so that a row's range that missed a change
+    // would keep or drop the wrong rows.
+    IncrementalMpc probe(dims, o);
+    probe.data() = d;
+    probe.build_prediction();
+    const VecX& free = probe.free_response();
+    d.clear_soft_rows();
+    for (int j = 0; j + 1 < np; j += 2) {
+      Vec3 a = random_matrix(rng, 3, 1, 1.0);
+      a.normalize();
+      d.add_soft_row(j, a, a.dot(free.segment(j * ny, ny)) - 4.0 + 5.0 * unit(rng), 0, 0);
+      d.add_soft_row(j + 1, Vec3::UnitZ(), free[(j + 1) * ny + 2] - 4.0 + 5.0 * unit(rng), 1, 0);
+    }
+    const IncrementalMpcResult& r = kept.solve();
+    IncrementalMpc fresh(dims, o);
+    fresh.data() = d;
+    const IncrementalMpcResult& f = fresh.solve();
+    ASSERT_TRUE(r.solved());
+    ASSERT_TRUE(f.solved());
+    // After a new nominal only the x and y rows: two rows of Γ and two of Φ a step.
+    if (step > 2 && (change <= 1 || change == 5 || change == 6 || change >= 12)) {
+      EXPECT_EQ(r.prediction_rows_computed, 4 * np);
+    }
+    expect_same_build(kept, fresh);
+  }
 }
 
 // A plant whose state k reads states k and k + 1 (A_j with zeros), moved by its last two states
