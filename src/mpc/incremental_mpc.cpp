@@ -364,12 +364,12 @@ IncrementalMpc::IncrementalMpc(const IncrementalMpcDims& dims, const Incremental
   b_copy_.assign(static_cast<std::size_t>(nc_) * ns_ * nu_, 0.0);
   b_reach_.assign(ns_, 0);
   a_pattern_.assign(static_cast<std::size_t>(ns_) * ns_, 0);
-  gamma_updates_.reserve(static_cast<std::size_t>(np_) * ns_);
-  phi_updates_.reserve(static_cast<std::size_t>(np_) * ny_);
-  gamma_begin_.assign(np_ + 1, 0);
-  phi_begin_.assign(np_ + 1, 0);
-  updates_a_changed_.assign(np_, 0);
-  updates_b_changed_.assign(nc_, 0);
+  updates_.gamma.reserve(static_cast<std::size_t>(np_) * ns_);
+  updates_.phi.reserve(static_cast<std::size_t>(np_) * ny_);
+  updates_.gamma_begin.assign(np_ + 1, 0);
+  updates_.phi_begin.assign(np_ + 1, 0);
+  updates_.a_changed.assign(np_, 0);
+  updates_.b_changed.assign(nc_, 0);
   Phi_ = RowMatX::Zero(np_ * ny_, nc_ * nu_);
   Gamma_ = RowMatX::Zero((np_ + 3) * ns_, nc_ * nu_);
   a_changed_rows_.assign(np_, ~std::uint64_t{0});
@@ -780,14 +780,14 @@ void IncrementalMpc::forward_pass() {
   // same rows, with the coefficients' present values) instead of deciding them again row by
   // row; for the UAV every step after the first few (the x and y rows of every step).
   const bool steady = keep && keep_phi;
-  const bool replay = steady && updates_valid_ && updates_listing_ == listing_generation_ &&
-                      updates_alternating_ == alternating && updates_no_history_ == no_history &&
-                      updates_a_changed_ == a_changed_rows_ &&
-                      updates_b_changed_ == b_changed_rows_;
+  const bool replay = steady && updates_.valid && updates_.listing == listing_generation_ &&
+                      updates_.alternating == alternating && updates_.no_history == no_history &&
+                      updates_.a_changed == a_changed_rows_ &&
+                      updates_.b_changed == b_changed_rows_;
   bool record = steady && !replay;
   if (!replay) {
-    gamma_updates_.clear();
-    phi_updates_.clear();
+    updates_.gamma.clear();
+    updates_.phi.clear();
   }
   // The free increments ds_{j−1} and ds_j, in the two buffers by turns.
   double* ds = ds_.data();
@@ -875,10 +875,10 @@ void IncrementalMpc::forward_pass() {
     // span lies inside it (reaches are closed over A), and its entries outside its own span
     // are exact zeros.
     if (replay) {
-      for (int u = gamma_begin_[j]; u < gamma_begin_[j + 1]; ++u)
-        apply_update(gamma_updates_[u], j);
+      for (int u = updates_.gamma_begin[j]; u < updates_.gamma_begin[j + 1]; ++u)
+        apply_update(updates_.gamma[u], j);
     } else {
-      gamma_begin_[j] = static_cast<int>(gamma_updates_.size());
+      updates_.gamma_begin[j] = static_cast<int>(updates_.gamma.size());
       const auto gamma_row = [&](int k) __attribute__((always_inline)) {
         const int first = row_begin[k], end = row_begin[k + 1];
         const int lo = state_span_lo_[k];
@@ -894,7 +894,7 @@ void IncrementalMpc::forward_pass() {
                          j < nc_ ? b_row_begin_[j * ns_ + k + 1] : 0,
                          -1,
                          -1};
-        decide(update, &a_entries_[first], previous, previous_alt, lo, gamma_updates_, j);
+        decide(update, &a_entries_[first], previous, previous_alt, lo, updates_.gamma, j);
       };
       if (ns_ <= 64) {
         // And the rows that read a row of Γ_{j−1} computed anew (its dependents in A_j); only
@@ -933,15 +933,15 @@ void IncrementalMpc::forward_pass() {
     }
     // Row k of Φ_j = row k of Φ_{j−1} + Σ_l C(k, l)·(row l of Γ_j), over the output's span.
     if (replay) {
-      for (int u = phi_begin_[j]; u < phi_begin_[j + 1]; ++u) {
-        const RowUpdate& update = phi_updates_[u];
+      for (int u = updates_.phi_begin[j]; u < updates_.phi_begin[j + 1]; ++u) {
+        const RowUpdate& update = updates_.phi[u];
         apply_update(update, j);
         range_stale_[update.phi_row] = 1;
         if (update.group >= 0) group_stale_[update.group] = 1;
       }
       continue;
     }
-    phi_begin_[j] = static_cast<int>(phi_updates_.size());
+    updates_.phi_begin[j] = static_cast<int>(updates_.phi.size());
     for (int k = 0; k < ny_; ++k) {
       const int first = c_row_begin_[k], end = c_row_begin_[k + 1];
       const int r = j * ny_ + k;
@@ -965,25 +965,26 @@ void IncrementalMpc::forward_pass() {
                        0,
                        r,
                        output_group_[k]};
-      decide(update, &c_entries_[first], now, now_alt, lo, phi_updates_, j);
+      decide(update, &c_entries_[first], now, now_alt, lo, updates_.phi, j);
     }
   }
   if (replay) {
-    rows_computed = updates_rows_computed_;
+    rows_computed = updates_.rows_computed;
   } else {
-    gamma_begin_[np_] = static_cast<int>(gamma_updates_.size());
-    phi_begin_[np_] = static_cast<int>(phi_updates_.size());
-    updates_valid_ = record;
-    updates_listing_ = listing_generation_;
-    updates_alternating_ = alternating;
-    updates_no_history_ = no_history;
-    updates_a_changed_ = a_changed_rows_;
-    updates_b_changed_ = b_changed_rows_;
-    updates_rows_computed_ = rows_computed;
+    updates_.gamma_begin[np_] = static_cast<int>(updates_.gamma.size());
+    updates_.phi_begin[np_] = static_cast<int>(updates_.phi.size());
+    updates_.valid = record;
+    updates_.listing = listing_generation_;
+    updates_.alternating = alternating;
+    updates_.no_history = no_history;
+    updates_.a_changed = a_changed_rows_;
+    updates_.b_changed = b_changed_rows_;
+    updates_.rows_computed = rows_computed;
   }
   rows_valid_ = true;
   history_valid_ = ~alternating & state_rows;
   result_.prediction_rows_computed = rows_computed;
+  result_.prediction_replayed = replay;
 }
 
 void IncrementalMpc::build_cost() {
@@ -1564,6 +1565,7 @@ const IncrementalMpcResult& IncrementalMpc::solve() {
     result_.soft_rows_time_us = 0.0;
     result_.soft_rows_in_qp = 0;
     result_.prediction_rows_computed = 0;
+    result_.prediction_replayed = false;
     return result_;
   }
   const bool timed = options_.time_parts;

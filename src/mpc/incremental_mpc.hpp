@@ -233,6 +233,9 @@ struct IncrementalMpcResult {
   /// of (n_s + n_y)·Np: the others did not change since the build before and kept their
   /// values (see build_prediction).
   int prediction_rows_computed = 0;
+  /// Whether that build replayed the row updates of the build before it (what decided them
+  /// unchanged; see build_prediction) instead of deciding each row.
+  bool prediction_replayed = false;
   double qp_time_us = 0.0;          ///< the QP solve (QpResult::solve_time_us)
   double condensing_time_us = 0.0;  ///< Φ, the free response, H and f (wall clock; NaN untimed)
   double soft_rows_time_us = 0.0;   ///< the soft rows written into the QP (wall clock; NaN untimed)
@@ -372,14 +375,20 @@ class IncrementalMpc {
     int b_begin, b_end;                       // Γ: the row's entries of B_j (j < Nc)
     int phi_row, group;                       // Φ: the row and its output's group (−1: none)
   };
-  std::vector<RowUpdate> gamma_updates_, phi_updates_;  // capacity Np·n_s, Np·n_y
-  std::vector<int> gamma_begin_, phi_begin_;            // Np + 1 each: step j's updates
-  // What decided them: the listings (a count of their changes), the masks, the rows computed.
-  bool updates_valid_ = false;
-  std::uint64_t listing_generation_ = 0, updates_listing_ = 0;
-  std::uint64_t updates_alternating_ = 0, updates_no_history_ = 0;
-  std::vector<std::uint64_t> updates_a_changed_, updates_b_changed_;
-  int updates_rows_computed_ = 0;
+  // The recorded updates and what decided them: the listings (a count of their changes), the
+  // masks, the rows computed. They point into the heap storage of Γ, Φ and the listings, which
+  // stays in place while the controller lives (a move keeps it; the controller is not copyable:
+  // its QP solver's workspace is not).
+  struct RecordedUpdates {
+    std::vector<RowUpdate> gamma, phi;        // capacity Np·n_s, Np·n_y
+    std::vector<int> gamma_begin, phi_begin;  // Np + 1 each: step j's updates
+    bool valid = false;
+    std::uint64_t listing = 0, alternating = 0, no_history = 0;
+    std::vector<std::uint64_t> a_changed, b_changed;  // Np, Nc
+    int rows_computed = 0;
+  };
+  RecordedUpdates updates_;
+  std::uint64_t listing_generation_ = 0;
   // Rows of Φ changed since their range over the move box was computed (Np·n_y), and groups
   // whose rows changed since their block of H was summed (n_y); the group of each output
   // (−1: none).

@@ -648,8 +648,9 @@ bool DualActiveSet::usable(Side c) const {
 // in both, against 29 µs with the n/2 limit). A point is accepted only by the checks of an
 // optimum (every side met, every inequality multiplier nonnegative, stationarity), so a
 // correction that does not lead to the optimum costs time, never the answer: when the
-// corrections run out or the sides are nearly dependent, the dual method starts from the previous
-// working set, as without them.
+// corrections run out, or the guess's sides are nearly dependent, or no side can leave for one
+// that joins in their span, the dual method starts from the previous working set, as without
+// them.
 bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
   const QpProblem& q = *q_;
   count_ = 0;
@@ -722,13 +723,21 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
                                  : cholesky_rows(gram, ldg, S, lds, factored, k, s_inverse);
       const double ratio = factor_ok ? diagonal_ratio(S, lds, k) : kInfinity;
       if (!(ratio * ratio < 1e12)) {  // dependent or nearly dependent sides
-        // The side that just joined lies (nearly) in the span of the others, n_p = N r in H⁻¹'s
-        // metric: as the dual method's step without a primal part, the side whose multiplier
-        // u_j − t·r_j reaches zero first as p's grows by t leaves for it (the rows of S before
-        // the last are the working set's factor, and the last row's entries before its pivot
-        // are w = S⁻¹Yᵀy_p, so r = S⁻ᵀw). Otherwise the dual method decides (infeasible, or
+        // When a side has just joined a working set whose factor passed this test, and its
+        // pivot failed or is the smallest (not a badly scaled side, whose pivot is the
+        // largest), it lies (nearly) in the span of the others, n_p = N r in H⁻¹'s metric: as
+        // the dual method's step without a primal part, the side whose multiplier u_j − t·r_j
+        // reaches zero first as p's grows by t leaves for it (the rows of S before the last are
+        // the working set's factor, and the last row's entries before its pivot are
+        // w = S⁻¹Yᵀy_p, so r = S⁻ᵀw). Otherwise the dual method decides (infeasible, or
         // dependent equalities).
         if (!joined || factored != k - 1 || !may_correct(correction)) return false;
+        if (factor_ok) {
+          const double pivot = S[(k - 1) * lds + k - 1];
+          for (int j = 0; j < k - 1; ++j) {
+            if (S[j * lds + j] < pivot) return false;
+          }
+        }
         for (int a = 0; a < k - 1; ++a) r_[a] = S[a * lds + k - 1];
         back_substitute_transposed(S, lds, k - 1, s_inverse, r_.data(), nullptr);
         int leaving = -1;

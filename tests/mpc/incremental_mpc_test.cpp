@@ -499,10 +499,10 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
 // The tracker's steady state: a new nominal at every step changes the x and y rows of every
 // A_j and nothing else, so that each pass after the first few replays the last one's row
 // updates (see forward_pass). Runs of such steps, broken by changes that make the pass decide
-// its rows again (a B_j, C, a constant row's value, a new nonzero, the same heading twice so that
-// no row changes, a changed box); at each step the QP's data equal bit for bit those of a
-// controller that decides every row, with soft rows near the edge of what the moves reach (whose
-// ranges the replayed updates must mark) and altitude floors (their group's block of H).
+// its rows again (a B_j, C, a constant row's value, a new nonzero, the same heading twice, a
+// changed box); replays exactly where expected; at each step the QP's data equal bit for bit those
+// of a controller that decides every row, with soft rows near the edge of what the moves reach
+// (whose ranges the replayed updates must mark) and altitude floors (their group's block of H).
 TEST(IncrementalMpcCondensing, ReplayedRowUpdatesEqualAFreshBuild) {
   std::mt19937 rng(21);
   const int ns = vehicle::kStateDim, nu = vehicle::kInputDim, ny = 3, np = 20, nc = 5;
@@ -515,7 +515,9 @@ TEST(IncrementalMpcCondensing, ReplayedRowUpdatesEqualAFreshBuild) {
   for (int step = 0; step < 96; ++step) {
     SCOPED_TRACE(step);
     const int change = step % 16;
-    if (change != 7) psi = heading(rng);  // at 7: the same nominal as the step before
+    // At 7 the same heading as the step before (the turn and speed rates drawn anew): A_0's
+    // rows do not change, so no row changes at every step and the rows to compute differ.
+    if (change != 7) psi = heading(rng);
     set_uav_plant(d, psi, 0.02 * unit(rng), 0.1 * unit(rng));
     switch (change) {
       case 2:  // a new nonzero (x reads the turn rate) at one step, the reaches the same ...
@@ -572,6 +574,13 @@ TEST(IncrementalMpcCondensing, ReplayedRowUpdatesEqualAFreshBuild) {
     if (step > 2 && (change <= 1 || change == 5 || change == 6 || change >= 12)) {
       EXPECT_EQ(r.prediction_rows_computed, 4 * np);
     }
+    // Replayed exactly where what decides the rows is the last pass's: after a step with a new
+    // nominal only, that pass itself recorded (not at 12, after C's change and its undoing).
+    const bool replays = change <= 1 || change == 6 || change >= 13;
+    if (step >= 16) {
+      EXPECT_EQ(r.prediction_replayed, replays);
+    }
+    EXPECT_FALSE(f.prediction_replayed);
     expect_same_build(kept, fresh);
   }
 }

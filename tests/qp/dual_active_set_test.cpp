@@ -634,6 +634,7 @@ TEST(DualActiveSetTest, ASideJoiningInTheSpanOfTheWorkingSetIsSwappedIn) {
   // grows leave for it: the one with the smaller multiplier, whose target is nearer its bound
   // (the other one's multiplier would turn negative, then the first one come back: four updates
   // instead of two). Both orders of the targets; no dual method; each answer is a cold start's.
+  // A side in the span of an equality alone has no side to take the place of.
   const int n = 3, rows = 3;
   for (const bool first_nearer : {true, false}) {
     SCOPED_TRACE(first_nearer);
@@ -650,9 +651,9 @@ TEST(DualActiveSetTest, ASideJoiningInTheSpanOfTheWorkingSetIsSwappedIn) {
     q.ug = Eigen::Vector3d(1.0, 1.0, 2.5);
     DualActiveSet solver;
     solver.resize(n, rows, 0);
-    // The first solve with the targets the other way round (so that neither order of the two
-    // sides in the working set is the order of their multipliers in both cases).
-    q.f = -2.0 * Eigen::Vector3d(target[1], target[0], target[2]);
+    // The first solve with the same targets in both cases, so that the side that must leave
+    // is the first of the working set in one case and the second in the other.
+    q.f = -2.0 * Eigen::Vector3d(4.0, 3.0, -0.5);
     ASSERT_EQ(solver.solve(q, false, 100, 1e-10), ActiveSetOutcome::kSolved);
     EXPECT_LT(inf_norm(solver.z() - Eigen::Vector3d(1.0, 1.0, -0.5)), 1e-12);
     ASSERT_EQ(solver.working_set_size(), 2);
@@ -671,6 +672,23 @@ TEST(DualActiveSetTest, ASideJoiningInTheSpanOfTheWorkingSetIsSwappedIn) {
     ASSERT_EQ(cold.solve(q, false, 100, 1e-10), ActiveSetOutcome::kSolved);
     EXPECT_LT(inf_norm(cold.z() - solver.z()), 1e-12);
   }
+  // A side that joins in the span of an equality alone (z_0 + z_1 = 1 held, z_0 + z_1 ≤ 0.5
+  // joining): no side may leave for it, and the dual method proves the problem infeasible.
+  QpProblem q;
+  q.H = 2.0 * Eigen::MatrixXd::Identity(n, n);
+  q.f = Eigen::Vector3d(-2.0, -2.0, 0.0);
+  q.lb = Eigen::VectorXd::Constant(n, -10.0);
+  q.ub = Eigen::VectorXd::Constant(n, 10.0);
+  q.G = Eigen::MatrixXd::Zero(2, n);
+  q.G(0, 0) = q.G(0, 1) = q.G(1, 0) = q.G(1, 1) = 1.0;
+  q.lg = Eigen::Vector2d(1.0, -kInfinity);
+  q.ug = Eigen::Vector2d(1.0, 2.0);
+  DualActiveSet solver;
+  solver.resize(n, 2, 0);
+  ASSERT_EQ(solver.solve(q, false, 100, 1e-10), ActiveSetOutcome::kSolved);
+  q.ug[1] = 0.5;
+  EXPECT_EQ(solver.solve(q, true, 100, 1e-10), ActiveSetOutcome::kInfeasible);
+  EXPECT_FALSE(solver.took_fast_path());
 }
 
 }  // namespace
