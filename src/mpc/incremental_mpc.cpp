@@ -804,15 +804,19 @@ void IncrementalMpc::forward_pass() {
   const Eigen::Index ld = static_cast<Eigen::Index>(np_ + 3) * Gamma_.outerStride();
   // Block b of Γ: its state 0's row.
   const auto block = [&](int b) { return Gamma_.data() + b * Gamma_.outerStride(); };
-  // A row update: its sum, then (a row of Γ_j for a move, j < Nc) B_j's entries in the columns
-  // of move j, where Γ_{j−1} is zero.
+  // A row of Γ_j for a move (j < Nc) gets B_j's entries in the columns of move j, where Γ_{j−1}
+  // is zero, after its sum (none for other rows: b_begin = b_end).
+  const auto write_b_entries = [&](const RowUpdate& update, int j) __attribute__((always_inline)) {
+    for (int e = update.b_begin; e < update.b_end; ++e) {
+      update.row[b_entries_[e].col * nc_ + j] = b_entries_[e].value;
+    }
+  };
+  // A row update: its sum, then B_j's entries.
   const auto apply_update = [&](const RowUpdate& update, int j) __attribute__((always_inline)) {
     double a[kMaxRowTerms];
     for (int t = 0; t < update.count; ++t) a[t] = *update.coefficient[t];
     combine_row(update.target, update.size, update.base, a, update.source, update.count);
-    for (int e = update.b_begin; e < update.b_end; ++e) {
-      update.row[b_entries_[e].col * nc_ + j] = b_entries_[e].value;
-    }
+    write_b_entries(update, j);
   };
   // A row update decided now: its terms (one row of A_j's or C's listing) read rows of the
   // block at `from` (`from_alt` for the alternating rows) at the row's span, from column lo;
@@ -842,9 +846,7 @@ void IncrementalMpc::forward_pass() {
     for (int t = 0; t < update.count; ++t) {
       axpy(update.target, update.size, terms[t].value, source(terms[t].col));
     }
-    for (int e = update.b_begin; e < update.b_end; ++e) {
-      update.row[b_entries_[e].col * nc_ + j] = b_entries_[e].value;
-    }
+    write_b_entries(update, j);
   };
   for (int j = 0; j < np_; ++j) {
     const double* w = known_term(j, j > 0 && later_increments_zero);
@@ -875,8 +877,9 @@ void IncrementalMpc::forward_pass() {
     // span lies inside it (reaches are closed over A), and its entries outside its own span
     // are exact zeros.
     if (replay) {
-      for (int u = updates_.gamma_begin[j]; u < updates_.gamma_begin[j + 1]; ++u)
+      for (int u = updates_.gamma_begin[j]; u < updates_.gamma_begin[j + 1]; ++u) {
         apply_update(updates_.gamma[u], j);
+      }
     } else {
       updates_.gamma_begin[j] = static_cast<int>(updates_.gamma.size());
       const auto gamma_row = [&](int k) __attribute__((always_inline)) {

@@ -701,6 +701,7 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
     }
     computed = --count_;
     factored = std::min(factored, leaving);
+    joined = false;
     ++iterations_;
   };
   for (int correction = 0;; ++correction) {
@@ -748,7 +749,6 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
         }
         if (leaving < 0) return false;
         leave(leaving, k);
-        joined = false;
         continue;
       }
       factored = k;
@@ -767,7 +767,6 @@ bool DualActiveSet::try_working_set(bool hot_start, int max_iterations) {
       if (negative >= 0) {
         if (!may_correct(correction)) return false;
         leave(negative, k);
-        joined = false;
         continue;
       }
       for (int j = equalities; j < k; ++j) u_[j] = std::max(u_[j], 0.0);

@@ -26,7 +26,7 @@
 // (most negative first) until u ≥ 0, which is a valid dual-feasible start. On an MPC sequence
 // the working set changes little from one period to the next, so a solve is one factorization
 // of H, q rank-one updates and a few iterations. Before that, a fast path tries the guessed
-// working set by the range-space method and corrects it by up to three sides (see
+// working set by the range-space method and corrects it by up to five sides (see
 // try_working_set); it answers most hot starts. The factor of H stops each column at its
 // envelope (the last row that can be nonzero), so a block-diagonal H, such as an MPC's with
 // inputs no output couples and its slacks, costs its blocks (see cholesky_lower).
