@@ -16,7 +16,14 @@ constexpr double kGravity_m_s2 = 9.80665;
 constexpr double deg_to_rad(double deg) { return deg * kPi / 180.0; }
 constexpr double rad_to_deg(double rad) { return rad * 180.0 / kPi; }
 
-/// Wraps an angle to (-pi, pi].
-double wrap_angle(double angle_rad);
+/// An angle outside (-pi, pi] wrapped into it (wrap_angle's library call).
+double wrap_angle_outside(double angle_rad);
+
+/// Wraps an angle to (-pi, pi]. Inline: the common case, a heading difference already in the
+/// range, is two comparisons, and the MPC takes dozens of them a step.
+inline double wrap_angle(double angle_rad) {
+  if (angle_rad > -kPi && angle_rad <= kPi) return angle_rad;
+  return wrap_angle_outside(angle_rad);
+}
 
 }  // namespace ridgeline

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "core/error.hpp"
+#include "core/simd_clones.hpp"
 #include "core/sin_cos.hpp"
 
 namespace ridgeline::world {
@@ -89,7 +91,7 @@ WindField::WindField(const WindConfig& config) : config_(config) {
   }
 }
 
-Vec3 WindField::gust_at(const Vec3& p_m, double t_s) const {
+RIDGELINE_SIMD_CLONES Vec3 WindField::gust_at(const Vec3& p_m, double t_s) const {
   if (config_.gust_std_m_s == 0.0) return Vec3::Zero();
   double theta[kModeBatch], sin_theta[kModeBatch], cos_theta[kModeBatch];
   const int n = static_cast<int>(wave_x_.size());
@@ -107,19 +109,48 @@ Vec3 WindField::gust_at(const Vec3& p_m, double t_s) const {
       theta[i] = kx[i] * px + ky[i] * py + kz[i] * pz - omega[i] * t_s;
     }
     sin_cos(theta, sin_theta, cos_theta, count);
-    // Σ cos(θ_n + φ_{n,c}), eq. W1, summed over the modes in order.
+    // Σ cos(θ_n + φ_{n,c}), eq. W1, in four interleaved partial sums a component (mode n in
+    // lane n mod 4 of its batch), combined pairwise at the batch's end: the compiler keeps each
+    // lane in a vector register instead of three chains of one addition a mode, and the order is
+    // written out, so every machine sums the same way.
     const double* cx = cos_phase_[0].data() + begin;
     const double* cy = cos_phase_[1].data() + begin;
     const double* cz = cos_phase_[2].data() + begin;
     const double* sxp = sin_phase_[0].data() + begin;
     const double* syp = sin_phase_[1].data() + begin;
     const double* szp = sin_phase_[2].data() + begin;
-    for (int i = 0; i < count; ++i) {
-      const double c = cos_theta[i], s = sin_theta[i];
-      sx += c * cx[i] - s * sxp[i];
-      sy += c * cy[i] - s * syp[i];
-      sz += c * cz[i] - s * szp[i];
+    Vec4 lx = {}, ly = {}, lz = {};
+    const auto add_modes = [&](const double* c_theta, const double* s_theta, const double* ax_,
+                               const double* ay_, const double* az_, const double* bx_,
+                               const double* by_, const double* bz_)
+        __attribute__((always_inline)) {
+      Vec4 c, s, ax, ay, az, bx, by, bz;
+      std::memcpy(&c, c_theta, sizeof c);
+      std::memcpy(&s, s_theta, sizeof s);
+      std::memcpy(&ax, ax_, sizeof ax);
+      std::memcpy(&ay, ay_, sizeof ay);
+      std::memcpy(&az, az_, sizeof az);
+      std::memcpy(&bx, bx_, sizeof bx);
+      std::memcpy(&by, by_, sizeof by);
+      std::memcpy(&bz, bz_, sizeof bz);
+      lx += c * ax - s * bx;
+      ly += c * ay - s * by;
+      lz += c * az - s * bz;
+    };
+    int i = 0;
+    for (; i + 4 <= count; i += 4) {
+      add_modes(cos_theta + i, sin_theta + i, cx + i, cy + i, cz + i, sxp + i, syp + i, szp + i);
     }
+    if (i < count) {
+      // The last one to three modes, padded with cos θ = sin θ = 0: the padding adds zeros.
+      double pad[8][4] = {};
+      const double* from[8] = {cos_theta, sin_theta, cx, cy, cz, sxp, syp, szp};
+      for (int a = 0; a < 8; ++a) std::copy(from[a] + i, from[a] + count, pad[a]);
+      add_modes(pad[0], pad[1], pad[2], pad[3], pad[4], pad[5], pad[6], pad[7]);
+    }
+    sx += (lx[0] + lx[1]) + (lx[2] + lx[3]);
+    sy += (ly[0] + ly[1]) + (ly[2] + ly[3]);
+    sz += (lz[0] + lz[1]) + (lz[2] + lz[3]);
   }
   return Vec3(amplitude_.x() * sx, amplitude_.y() * sy, amplitude_.z() * sz);
 }
