@@ -78,7 +78,7 @@ bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
 // summed in, stays. Four vector sums of x·0 (one fused multiply-add each, AVX2 where the
 // CPU has it) read the entries at about one instruction per four; written with vector types,
 // because the vectorizer would keep a floating-point sum scalar.
-RIDGELINE_SIMD_CLONES bool finite_entries(const double* x, Eigen::Index n) {
+inline __attribute__((always_inline)) bool finite_entries_inline(const double* x, Eigen::Index n) {
   const Vec4 zero = {};
   Vec4 s0 = {}, s1 = {}, s2 = {}, s3 = {};
   Eigen::Index i = 0;
@@ -97,6 +97,19 @@ RIDGELINE_SIMD_CLONES bool finite_entries(const double* x, Eigen::Index n) {
   double tail = (s[0] + s[1]) + (s[2] + s[3]);
   for (; i < n; ++i) tail += x[i] * 0.0;
   return tail == 0.0;
+}
+
+RIDGELINE_SIMD_CLONES bool finite_entries(const double* x, Eigen::Index n) {
+  return finite_entries_inline(x, n);
+}
+
+// Every entry of the rows × cols block at x (column-major, leading dimension ld) is finite: the
+// columns one after the other in one call, where a call a column cost more than its few rows.
+RIDGELINE_SIMD_CLONES bool finite_block(const double* x, Eigen::Index ld, Eigen::Index rows,
+                                        Eigen::Index cols) {
+  bool finite = true;
+  for (Eigen::Index c = 0; c < cols; ++c) finite &= finite_entries_inline(x + c * ld, rows);
+  return finite;
 }
 
 // H is finite and symmetric to a relative 1e-10 (the round-off of an assembled H; the solver
@@ -270,10 +283,7 @@ bool rows_finite(const QpProblem& q, const DualActiveSet& active_set) {
   if (!all_finite(active_set.z()) || !finite_entries(active_set.row_products().data(), live)) {
     return false;
   }
-  for (Eigen::Index c = 0; c < q.G.cols(); ++c) {
-    if (!finite_entries(q.G.col(c).data() + live, m - live)) return false;
-  }
-  return true;
+  return live == m || finite_block(q.G.data() + live, q.G.outerStride(), m - live, q.G.cols());
 }
 
 // Two sides this close form an equality: as two inequalities they would leave no interior.

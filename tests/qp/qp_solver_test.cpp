@@ -247,6 +247,40 @@ TEST(QpSolverTest, InputChecksSeeEveryEntry) {
   }
 }
 
+// Rows of G with no finite side (free rows) constrain nothing, yet a NaN or an infinity in one
+// is still bad input: free rows in the middle and at the end, every entry of each, for
+// sizes around the checks' groups of four and sixteen entries.
+TEST(QpSolverTest, InputChecksSeeTheFreeRowsOfG) {
+  QpSolver solver;
+  for (const int n : {1, 3, 4, 5, 17, 33}) {
+    const int m = n + 4;
+    QpProblem q;
+    q.H = Eigen::MatrixXd::Identity(n, n);
+    q.f = Eigen::VectorXd::LinSpaced(n, -2.0, 2.0);
+    q.G = Eigen::MatrixXd::Zero(m, n);
+    q.lg = Eigen::VectorXd::Constant(m, -1.0);
+    q.ug = Eigen::VectorXd::Constant(m, 1.0);
+    for (int i = 0; i < n; ++i) q.G(i < n / 2 ? i : i + 1, i) = 1.0;
+    const int free_rows[] = {n / 2, m - 3, m - 2, m - 1};
+    for (const int r : free_rows) {
+      q.G.row(r).setConstant(0.5);
+      q.lg[r] = -kInfinity;
+      q.ug[r] = kInfinity;
+    }
+    q.A.resize(0, n);
+    ASSERT_EQ(solver.solve(q).status, QpStatus::kSolved) << n;
+    for (const int r : free_rows) {
+      for (int c = 0; c < n; ++c) {
+        for (const double v : {std::nan(""), kInfinity}) {
+          QpProblem bad = q;
+          bad.G(r, c) = v;
+          EXPECT_EQ(solver.solve(bad).status, QpStatus::kInvalidInput) << n << " " << r << " " << c;
+        }
+      }
+    }
+  }
+}
+
 // The tolerance of the symmetry test is relative to the largest |H_ij|, found eight entries at
 // a time with a scalar tail: a largest entry (of either sign) at any diagonal position of any size
 // must set it. And the sides (lb ≤ ub, lg ≤ ug), read four pairs at a time: a NaN, a crossed
