@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+
+#include "core/simd_clones.hpp"
 
 namespace ridgeline::messages {
 namespace {
@@ -13,6 +16,27 @@ std::optional<std::string> check_uav(const char* field, int id, int num_uavs) {
   if (id < 0 || id >= num_uavs)
     return fmt::format("{} {} is not a UAV of this team (0..{})", field, id, num_uavs - 1);
   return std::nullopt;
+}
+
+// Every coordinate of the points is finite: x·0 is ±0 for a finite x and NaN otherwise, summed
+// four lanes at a time over the points' contiguous coordinates (a received trajectory carries
+// up to a few hundred; a point-by-point test with early exits cost a twentieth of the agents'
+// share of a flight's instructions).
+bool all_finite(const std::vector<Vec3>& points) {
+  static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 is three contiguous doubles");
+  const double* x = points.empty() ? nullptr : points.front().data();
+  const std::size_t n = 3 * points.size();
+  const Vec4 zero = {};
+  Vec4 sum = {};
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    Vec4 v;
+    std::memcpy(&v, x + i, sizeof v);
+    sum += v * zero;
+  }
+  double tail = (sum[0] + sum[1]) + (sum[2] + sum[3]);
+  for (; i < n; ++i) tail += x[i] * 0.0;
+  return tail == 0.0;
 }
 
 std::optional<std::string> check_stamp(double stamp_s) {
@@ -32,15 +56,13 @@ struct Checker {
       return fmt::format("step {} s is invalid", m.step_s);
     if (m.positions_m.empty() || m.positions_m.size() > max_points)
       return fmt::format("{} positions, expected 1..{}", m.positions_m.size(), max_points);
-    for (const Vec3& p : m.positions_m)
-      if (!p.allFinite()) return std::string("a position is not finite");
+    if (!all_finite(m.positions_m)) return std::string("a position is not finite");
     if (m.intent_m.size() > max_points)
       return fmt::format("{} intent samples, expected at most {}", m.intent_m.size(), max_points);
     if (!(std::isfinite(m.intent_start_s) && std::isfinite(m.intent_step_s) && m.intent_step_s > 0.0))
       return fmt::format("intent start {} s or step {} s is invalid", m.intent_start_s,
                          m.intent_step_s);
-    for (const Vec3& p : m.intent_m)
-      if (!p.allFinite()) return std::string("an intent sample is not finite");
+    if (!all_finite(m.intent_m)) return std::string("an intent sample is not finite");
     return std::nullopt;
   }
   std::optional<std::string> operator()(const ThreatReport& m) const {

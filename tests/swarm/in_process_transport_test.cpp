@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "core/error.hpp"
@@ -112,6 +113,37 @@ TEST(Messages, MalformedMessagesAreRejectedWithAReason) {
   s.stamp_s = -1.0;
   EXPECT_TRUE(check_message(s, 1).has_value());
   EXPECT_STREQ(message_type_name(s), "StateReport");
+}
+
+// A prediction's positions and intent samples are checked coordinate by coordinate (four at a
+// time): a NaN or an infinity in any coordinate of any point is named, for counts on either side
+// of the groups of four; the largest finite values, −0 and denormals pass.
+TEST(CheckMessage, EveryCoordinateOfAPredictionIsChecked) {
+  for (int n = 1; n <= 9; ++n) {
+    PredictedTrajectory p;
+    p.uav = 0;
+    p.stamp_s = 1.0;
+    p.positions_m.assign(n, Vec3(1.0, -0.0, std::numeric_limits<double>::max()));
+    p.intent_m.assign(n + 2, Vec3(std::numeric_limits<double>::denorm_min(), 2.0, -3.0));
+    ASSERT_FALSE(check_message(p, 1).has_value()) << n;
+    for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity(),
+                             -std::numeric_limits<double>::infinity()}) {
+      for (int i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) {
+          PredictedTrajectory q = p;
+          q.positions_m[i][c] = bad;
+          const auto error = check_message(q, 1);
+          ASSERT_TRUE(error.has_value()) << n << " " << i << " " << c;
+          EXPECT_NE(error->find("position is not finite"), std::string::npos) << *error;
+          q = p;
+          q.intent_m[i + 2][c] = bad;
+          const auto intent_error = check_message(q, 1);
+          ASSERT_TRUE(intent_error.has_value()) << n << " " << i << " " << c;
+          EXPECT_NE(intent_error->find("intent sample is not finite"), std::string::npos);
+        }
+      }
+    }
+  }
 }
 
 Message prediction_at(int uav, double stamp, const Vec3& position) {
