@@ -16,6 +16,14 @@ constexpr double kGravity_m_s2 = 9.80665;
 constexpr double deg_to_rad(double deg) { return deg * kPi / 180.0; }
 constexpr double rad_to_deg(double rad) { return rad * 180.0 / kPi; }
 
+/// floor(f) clamped to [0, last] (last ≥ 0), the segment of a sampled sequence that a
+/// fractional sample index f falls in; a NaN f gives 0. By truncating f clamped first: on
+/// the baseline x86-64 std::floor is a library call, and the look-ups of predictions and
+/// references take it thousands of times a simulated second.
+inline int segment_index(double f, int last) {
+  return static_cast<int>(f > 0.0 ? (f < last ? f : static_cast<double>(last)) : 0.0);
+}
+
 /// An angle outside (-pi, pi] wrapped into it (wrap_angle's library call).
 double wrap_angle_outside(double angle_rad);
 

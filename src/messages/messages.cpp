@@ -135,7 +135,7 @@ Vec3 expected_position(const PredictedTrajectory& prediction, double t_s) {
   const int m = static_cast<int>(q.size());
   if (m >= 2) {
     const double f = (t_s - prediction.intent_start_s) / prediction.intent_step_s;
-    const int i = std::clamp(static_cast<int>(std::floor(f)), 0, m - 2);
+    const int i = segment_index(f, m - 2);
     return q[i] + (f - i) * (q[i + 1] - q[i]);
   }
   if (n < 2) return p.back();

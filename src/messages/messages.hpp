@@ -49,8 +49,7 @@ inline Vec3 predicted_position(const PredictedTrajectory& prediction, double t_s
   if (n == 1) return p.front();
   const double first_time_s = prediction.stamp_s + prediction.step_s;  // k = 1
   const double f = (t_s - first_time_s) / prediction.step_s;
-  int i = static_cast<int>(std::floor(f));
-  i = std::clamp(i, 0, n - 2);  // outside the samples: the nearest segment, extrapolated
+  const int i = segment_index(f, n - 2);  // outside the samples: the nearest segment, extrapolated
   const double a = f - i;
   return p[i] + a * (p[i + 1] - p[i]);
 }

@@ -241,9 +241,7 @@ void UavTracker::build_nominal(double t_s, const vehicle::State& state,
       out = previous_states_.col(0);
       return true;
     }
-    // floor(f) clamped to [0, Np − 2], by truncating f clamped first (std::floor is a library
-    // call on the baseline x86-64; a NaN f takes segment 0).
-    const int i = static_cast<int>(f > 0.0 ? std::min(f, static_cast<double>(np_ - 2)) : 0.0);
+    const int i = segment_index(f, np_ - 2);
     const vehicle::State sa = previous_states_.col(i);
     const vehicle::State sb = previous_states_.col(i + 1);
     out = sa + (f - i) * (sb - sa);  // headings of a prediction are continuous

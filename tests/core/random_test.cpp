@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/types.hpp"
 
@@ -59,6 +61,24 @@ TEST(WrapAngle, MapsIntoHalfOpenInterval) {
     EXPECT_GT(w, -kPi);
     EXPECT_LE(w, kPi);
     EXPECT_NEAR(std::remainder(w - a, 2 * kPi), 0.0, 1e-9);
+  }
+}
+
+// floor(f) clamped to [0, last] for every f, including those past the ends, the integers, the
+// values just below them, and the ones std::floor could not cast (huge, infinite, NaN → 0).
+TEST(SegmentIndex, IsTheClampedFloor) {
+  for (const int last : {0, 1, 5, 38}) {
+    for (double f = -3.0; f < last + 3.0; f += 0.125) {
+      const double floor = std::clamp(std::floor(f), 0.0, static_cast<double>(last));
+      EXPECT_EQ(segment_index(f, last), static_cast<int>(floor)) << f << " " << last;
+      const double below = std::nextafter(f, -1e9);
+      const double floor_below = std::clamp(std::floor(below), 0.0, static_cast<double>(last));
+      EXPECT_EQ(segment_index(below, last), static_cast<int>(floor_below)) << below;
+    }
+    EXPECT_EQ(segment_index(1e300, last), last);
+    EXPECT_EQ(segment_index(std::numeric_limits<double>::infinity(), last), last);
+    EXPECT_EQ(segment_index(-std::numeric_limits<double>::infinity(), last), 0);
+    EXPECT_EQ(segment_index(std::nan(""), last), 0);
   }
 }
 
