@@ -91,7 +91,10 @@ WindField::WindField(const WindConfig& config) : config_(config) {
   }
 }
 
-RIDGELINE_SIMD_CLONES Vec3 WindField::gust_at(const Vec3& p_m, double t_s) const {
+// Without fused multiply-adds (RIDGELINE_NO_CONTRACTION), so that the AVX2 clone rounds as the
+// baseline one does and a field's values depend on the machine through sin_cos alone.
+RIDGELINE_SIMD_CLONES RIDGELINE_NO_CONTRACTION Vec3 WindField::gust_at(const Vec3& p_m,
+                                                                       double t_s) const {
   if (config_.gust_std_m_s == 0.0) return Vec3::Zero();
   double theta[kModeBatch], sin_theta[kModeBatch], cos_theta[kModeBatch];
   const int n = static_cast<int>(wave_x_.size());

@@ -135,8 +135,12 @@ TEST(CheckMessage, EveryCoordinateOfAPredictionIsChecked) {
           const auto error = check_message(q, 1);
           ASSERT_TRUE(error.has_value()) << n << " " << i << " " << c;
           EXPECT_NE(error->find("position is not finite"), std::string::npos) << *error;
-          q = p;
-          q.intent_m[i + 2][c] = bad;
+        }
+      }
+      for (int i = 0; i < n + 2; ++i) {
+        for (int c = 0; c < 3; ++c) {
+          PredictedTrajectory q = p;
+          q.intent_m[i][c] = bad;
           const auto intent_error = check_message(q, 1);
           ASSERT_TRUE(intent_error.has_value()) << n << " " << i << " " << c;
           EXPECT_NE(intent_error->find("intent sample is not finite"), std::string::npos);

@@ -77,10 +77,10 @@ TEST(WindField, ZeroGustGivesExactlyTheMean) {
 
 // The field is eq. W1 term by term: the modes drawn again from the documented stream and
 // order, each cos(k·p − ωt + φ) taken from libm, agree with gust_at to round-off — for the
-// default mode count, a count that leaves a remainder of a four-mode group, and one that spans
-// more than one of gust_at's batches.
+// default mode count, counts that leave one or three modes after the last four-mode group, and
+// one that spans more than one of gust_at's batches (ending with two).
 TEST(WindField, GustsAreTheSumOfEquationW1) {
-  for (const int modes : {64, 7, 130}) {
+  for (const int modes : {64, 5, 7, 130}) {
     WindConfig c = gusty_config(77);
     c.gust_modes = modes;
     const WindField field(c);
