@@ -74,33 +74,9 @@ constexpr double kWarmStartShift = 1e-6;
 
 bool finite_side(double v) { return std::abs(v) < kInfiniteBound; }
 
-// No entry infinite or NaN: x·0 is ±0 for a finite x and NaN otherwise, and a NaN, once
-// summed in, stays. Four vector sums of x·0 (one fused multiply-add each, AVX2 where the
-// CPU has it) read the entries at about one instruction per four; written with vector types,
-// because the vectorizer would keep a floating-point sum scalar.
-inline __attribute__((always_inline)) bool finite_entries_inline(const double* x, Eigen::Index n) {
-  const Vec4 zero = {};
-  Vec4 s0 = {}, s1 = {}, s2 = {}, s3 = {};
-  Eigen::Index i = 0;
-  for (; i + 16 <= n; i += 16) {
-    Vec4 v0, v1, v2, v3;
-    std::memcpy(&v0, x + i, sizeof v0);
-    std::memcpy(&v1, x + i + 4, sizeof v1);
-    std::memcpy(&v2, x + i + 8, sizeof v2);
-    std::memcpy(&v3, x + i + 12, sizeof v3);
-    s0 += v0 * zero;
-    s1 += v1 * zero;
-    s2 += v2 * zero;
-    s3 += v3 * zero;
-  }
-  const Vec4 s = (s0 + s1) + (s2 + s3);
-  double tail = (s[0] + s[1]) + (s[2] + s[3]);
-  for (; i < n; ++i) tail += x[i] * 0.0;
-  return tail == 0.0;
-}
-
+// No entry infinite or NaN (entries_finite, in the AVX2 clone where the CPU has it).
 RIDGELINE_SIMD_CLONES bool finite_entries(const double* x, Eigen::Index n) {
-  return finite_entries_inline(x, n);
+  return entries_finite(x, n);
 }
 
 // Every entry of the rows × cols block at x (column-major, leading dimension ld) is finite: the
@@ -108,7 +84,7 @@ RIDGELINE_SIMD_CLONES bool finite_entries(const double* x, Eigen::Index n) {
 RIDGELINE_SIMD_CLONES bool finite_block(const double* x, Eigen::Index ld, Eigen::Index rows,
                                         Eigen::Index cols) {
   bool finite = true;
-  for (Eigen::Index c = 0; c < cols; ++c) finite &= finite_entries_inline(x + c * ld, rows);
+  for (Eigen::Index c = 0; c < cols; ++c) finite &= entries_finite(x + c * ld, rows);
   return finite;
 }
 

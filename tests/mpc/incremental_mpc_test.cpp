@@ -357,6 +357,22 @@ void set_uav_plant(IncrementalMpcData& d, double psi0, double heading_rate, doub
   d.C.leftCols(3).setIdentity();
 }
 
+// A step's data about the UAV plant (drawn in this order): the increment, the output and state
+// tens of metres out, and a reference within a few metres of the output at every step.
+void set_random_step(IncrementalMpcData& d, std::mt19937& rng, int ns, int ny, int np) {
+  d.delta_state = random_matrix(rng, ns, 1, 0.05);
+  d.output = random_matrix(rng, ny, 1, 50.0);
+  d.state = random_matrix(rng, ns, 1, 50.0);
+  d.reference = random_matrix(rng, ny, np, 3.0);
+  for (int j = 0; j < np; ++j) d.reference.col(j) += d.output;
+}
+
+// The climb's move box (input 2): ±climb at every move.
+void set_climb_box(IncrementalMpcData& d, double climb) {
+  d.move_min.row(2).setConstant(-climb);
+  d.move_max.row(2).setConstant(climb);
+}
+
 // Bit for bit (memcmp: −0 differs from +0, a NaN equals the same NaN).
 template <typename Matrix>
 bool same_bits(const Matrix& a, const Matrix& b) {
@@ -423,12 +439,9 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
       case 5:  // ... and no longer
         for (int j = 0; j < np; ++j) d.A[j](vehicle::kZ, vehicle::kV) = 0.0;
         break;
-      case 6: {  // one input's move box (the climb's, which the altitude rows below test)
-        const double climb = 0.02 + 0.3 * unit(rng);
-        d.move_min.row(2).setConstant(-climb);
-        d.move_max.row(2).setConstant(climb);
+      case 6:  // one input's move box (the climb's, which the altitude rows below test)
+        set_climb_box(d, 0.02 + 0.3 * unit(rng));
         break;
-      }
       case 7:  // a heading-dependent entry at one step only: x changes there, y does not
         d.A[any_step(rng)](vehicle::kX, vehicle::kPsi) *= 1.01;
         break;
@@ -443,11 +456,7 @@ TEST(IncrementalMpcCondensing, RowsKeptFromTheLastStepEqualAFreshBuild) {
       default:  // nothing changed
         break;
     }
-    d.delta_state = random_matrix(rng, ns, 1, 0.05);
-    d.output = random_matrix(rng, ny, 1, 50.0);
-    d.state = random_matrix(rng, ns, 1, 50.0);
-    d.reference = random_matrix(rng, ny, np, 3.0);
-    for (int j = 0; j < np; ++j) d.reference.col(j) += d.output;
+    set_random_step(d, rng, ns, ny, np);
     d.clear_soft_rows();
     for (int j = 0; j < np; j += 3) {
       Vec3 a = random_matrix(rng, 3, 1, 1.0);
@@ -535,20 +544,13 @@ TEST(IncrementalMpcCondensing, ReplayedRowUpdatesEqualAFreshBuild) {
       case 10:  // C
         d.C(1, 1) = 1.0 + 0.1 * unit(rng);
         break;
-      case 11: {  // the climb's move box
-        const double climb = 0.02 + 0.3 * unit(rng);
-        d.move_min.row(2).setConstant(-climb);
-        d.move_max.row(2).setConstant(climb);
+      case 11:  // the climb's move box
+        set_climb_box(d, 0.02 + 0.3 * unit(rng));
         break;
-      }
       default:  // 0, 1, 4, 5, 6, 12–15: a new nominal only
         break;
     }
-    d.delta_state = random_matrix(rng, ns, 1, 0.05);
-    d.output = random_matrix(rng, ny, 1, 50.0);
-    d.state = random_matrix(rng, ns, 1, 50.0);
-    d.reference = random_matrix(rng, ny, np, 3.0);
-    for (int j = 0; j < np; ++j) d.reference.col(j) += d.output;
+    set_random_step(d, rng, ns, ny, np);
     // Soft rows on x, y and z and altitude floors, their bounds from 4 m inside to 1 m outside
     // the free response (from a controller of its own, so that `kept` builds once a step): many
     // near the edge of what the moves can reach, so that a row's range that missed a change
